@@ -1,0 +1,119 @@
+"""SMPL forward pass as a batched, differentiable torch layer (CPU or CUDA, float32 or float64).
+
+Call shape follows the community convention::
+
+    out = layer(betas=(B, S), body_pose=(B, 3(J-1)), global_orient=(B, 3), transl=(B, 3))
+    out.vertices  # (B, V, 3) metres
+    out.joints    # (B, J, 3) metres
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from pressurepose.body.smpl_io import SmplArrays
+
+
+@dataclass
+class BodyOutput:
+    """Result of a body forward pass: vertices (B, V, 3) and joints (B, J, 3), metres.
+
+    ``rotations`` (B, J, 3, 3) are the world rotations of the joint frames.
+    """
+
+    vertices: torch.Tensor
+    joints: torch.Tensor
+    rotations: torch.Tensor | None = None
+
+
+def batch_rodrigues(axis_angle: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (..., 3, 3) from axis-angle (..., 3); smooth and exact at zero angle.
+
+    Uses sin(t)/t and (1-cos t)/t^2 with Taylor series near 0 so gradients stay finite there.
+    """
+    theta2 = (axis_angle * axis_angle).sum(-1, keepdim=True)
+    small = theta2 < 1e-8
+    t2 = torch.where(small, torch.ones_like(theta2), theta2)
+    theta = torch.sqrt(t2)
+    a = torch.where(small, 1.0 - theta2 / 6.0, torch.sin(theta) / theta)
+    b = torch.where(small, 0.5 - theta2 / 24.0, (1.0 - torch.cos(theta)) / t2)
+    x, y, z = axis_angle.unbind(-1)
+    zero = torch.zeros_like(x)
+    K = torch.stack([zero, -z, y, z, zero, -x, -y, x, zero], -1).reshape(axis_angle.shape[:-1] + (3, 3))
+    eye = torch.eye(3, dtype=axis_angle.dtype, device=axis_angle.device).expand(K.shape)
+    return eye + a[..., None] * K + b[..., None] * (K @ K)
+
+
+class BodyLayer(nn.Module):
+    """Differentiable SMPL-format body model. Build with ``BodyModel(...).torch_layer()``.
+
+    All model arrays are buffers: ``.to(device, dtype)`` moves them, nothing is trained.
+    """
+
+    def __init__(self, arrays: SmplArrays, dtype: torch.dtype = torch.float32):
+        super().__init__()
+        self.num_joints = arrays.num_joints
+        self.num_betas = arrays.num_betas
+        self.parents = [int(p) for p in arrays.parents]
+
+        def buf(name, value):
+            self.register_buffer(name, torch.as_tensor(np.asarray(value), dtype=dtype), persistent=False)
+
+        buf("v_template", arrays.v_template)
+        buf("shapedirs", arrays.shapedirs)
+        buf("posedirs", arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T)  # (P, V*3)
+        buf("J_regressor", arrays.J_regressor)
+        buf("weights", arrays.weights)
+        self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
+
+    def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
+                global_orient: torch.Tensor | None = None, transl: torch.Tensor | None = None,
+                ) -> BodyOutput:
+        """Pose the body. Any argument may be None (zeros); batch size from the first given."""
+        ref = next((t for t in (betas, body_pose, global_orient, transl) if t is not None), None)
+        bsz = 1 if ref is None else ref.shape[0]
+        dt, dev = self.v_template.dtype, self.v_template.device
+
+        def or_zeros(t, n):
+            return torch.zeros(bsz, n, dtype=dt, device=dev) if t is None else t.to(dt)
+
+        n_j = self.num_joints
+        betas = or_zeros(betas, self.num_betas)
+        body_pose = or_zeros(body_pose, 3 * (n_j - 1))
+        global_orient = or_zeros(global_orient, 3)
+        if betas.shape[-1] > self.num_betas:
+            raise ValueError(f"betas has {betas.shape[-1]} values; this body model has {self.num_betas}")
+        if body_pose.shape[-1] != 3 * (n_j - 1):
+            raise ValueError(f"body_pose has {body_pose.shape[-1]} values; expected {3 * (n_j - 1)}")
+
+        s = betas.shape[-1]
+        v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :s], betas)
+        J = torch.einsum("jv,bvc->bjc", self.J_regressor, v_shaped)
+        pose = torch.cat([global_orient, body_pose], dim=-1).reshape(bsz, n_j, 3)
+        rot = batch_rodrigues(pose)
+        eye = torch.eye(3, dtype=dt, device=dev)
+        pose_feature = (rot[:, 1:] - eye).reshape(bsz, -1)
+        v_posed = v_shaped + (pose_feature @ self.posedirs).reshape(bsz, -1, 3)
+
+        rel = torch.cat([J[:, :1], J[:, 1:] - J[:, self.parents[1:]]], dim=1)
+        world_R = [rot[:, 0]]
+        world_t = [rel[:, 0]]
+        for j in range(1, n_j):
+            p = self.parents[j]
+            world_R.append(world_R[p] @ rot[:, j])
+            world_t.append(world_t[p] + (world_R[p] @ rel[:, j, :, None])[..., 0])
+        Rw = torch.stack(world_R, 1)  # (B, J, 3, 3)
+        tw = torch.stack(world_t, 1)  # (B, J, 3)
+        t_skin = tw - (Rw @ J[..., None])[..., 0]
+        T_R = torch.einsum("vj,bjcd->bvcd", self.weights, Rw)
+        T_t = torch.einsum("vj,bjc->bvc", self.weights, t_skin)
+        verts = (T_R @ v_posed[..., None])[..., 0] + T_t
+        joints = tw
+        if transl is not None:
+            verts = verts + transl.to(dt)[:, None]
+            joints = joints + transl.to(dt)[:, None]
+        return BodyOutput(vertices=verts, joints=joints, rotations=Rw)

@@ -1,0 +1,59 @@
+"""The one command-line entry point: ``pressurepose <verb> [options]``.
+
+Each verb lives in the subpackage that does its work, as a pair of functions
+``add_<name>_arguments(parser)`` and ``run_<name>(args) -> int`` in a ``commands`` module; this
+table is the only place verbs are registered. A verb's module is imported only when it runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# verb -> (module, function stem, one-line help)
+VERBS: dict[str, tuple[str, str, str]] = {
+    "demo": ("pressurepose.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
+    "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from pressurepose import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="pressurepose",
+        description="3D body pose and shape from bed pressure images: data engine, PressureNet, evaluation.")
+    parser.add_argument("--version", action="version", version=f"pressurepose {__version__}")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB")
+    for verb, (module, stem, help_text) in VERBS.items():
+        p = sub.add_parser(verb, help=help_text, description=help_text)
+        p.set_defaults(_module=module, _stem=stem)
+        if verb in sys.argv[1:2]:  # only the chosen verb's module is imported
+            getattr(importlib.import_module(module), f"add_{stem}_arguments")(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    from pressurepose.errors import BadInput
+
+    argv = sys.argv[1:] if argv is None else argv
+    sys_argv, sys.argv = sys.argv, [sys.argv[0], *argv]
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+    finally:
+        sys.argv = sys_argv
+    if not getattr(args, "verb", None):
+        parser.print_help()
+        return 0
+    run = getattr(importlib.import_module(args._module), f"run_{args._stem}")
+    try:
+        return int(run(args) or 0)
+    except BadInput as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
