@@ -5,6 +5,8 @@ Call shape follows the community convention::
     out = layer(betas=(B, S), body_pose=(B, 3(J-1)), global_orient=(B, 3), transl=(B, 3))
     out.vertices  # (B, V, 3) metres
     out.joints    # (B, J, 3) metres
+
+Same frames as :mod:`pressurepose.body.lbs_numpy`: SMPL parameters in, z-up project frame out.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.smpl_io import SmplArrays
 
 
@@ -22,7 +25,8 @@ from pressurepose.body.smpl_io import SmplArrays
 class BodyOutput:
     """Result of a body forward pass: vertices (B, V, 3) and joints (B, J, 3), metres.
 
-    ``rotations`` (B, J, 3, 3) are the world rotations of the joint frames.
+    ``rotations`` (B, J, 3, 3) are the joint frames' rotations in the project frame (the fixed
+    y-up to z-up turn included).
     """
 
     vertices: torch.Tensor
@@ -68,6 +72,7 @@ class BodyLayer(nn.Module):
         buf("posedirs", arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T)  # (P, V*3)
         buf("J_regressor", arrays.J_regressor)
         buf("weights", arrays.weights)
+        buf("y_up_to_z_up", Y_UP_TO_Z_UP)
         self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
@@ -112,7 +117,10 @@ class BodyLayer(nn.Module):
         T_R = torch.einsum("vj,bjcd->bvcd", self.weights, Rw)
         T_t = torch.einsum("vj,bjc->bvc", self.weights, t_skin)
         verts = (T_R @ v_posed[..., None])[..., 0] + T_t
-        joints = tw
+        Q = self.y_up_to_z_up
+        verts = verts @ Q.T
+        joints = tw @ Q.T
+        Rw = Q @ Rw
         if transl is not None:
             verts = verts + transl.to(dt)[:, None]
             joints = joints + transl.to(dt)[:, None]

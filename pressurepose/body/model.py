@@ -62,14 +62,19 @@ class BodyModel:
 
     Parameters
     ----------
-    spec: 'female' | 'male' | 'neutral' (or f/m/n) for the shipped open models, or the path of
-        an SMPL-format ``.npz`` or official SMPL ``.pkl``.
+    spec: 'female' | 'male' | 'neutral' (or f/m/n) for the shipped open models, the path of
+        an SMPL-format ``.npz`` or official SMPL ``.pkl``, or :class:`SmplArrays` already in memory
+        (e.g. ``pressurepose.body.toy.toy_body_arrays()``).
     """
 
-    def __init__(self, spec: str | Path = "neutral"):
-        path = resolve_model_path(spec)
-        self.path = path
-        self.arrays: SmplArrays = _load_cached(str(path), path.stat().st_mtime)
+    def __init__(self, spec: str | Path | SmplArrays = "neutral"):
+        if isinstance(spec, SmplArrays):
+            self.path = Path(str(spec.meta.get("source", "arrays")))
+            self.arrays = spec
+        else:
+            path = resolve_model_path(spec)
+            self.path = path
+            self.arrays = _load_cached(str(path), path.stat().st_mtime)
         g = self.arrays.meta.get("gender")
         self.gender = canonical_gender(g) if g in _ALIASES else (
             canonical_gender(spec) if str(spec).lower() in _ALIASES else "neutral")
