@@ -14,7 +14,8 @@ key             shape        meaning
 ``f``           F x 3        triangle faces (vertex indices)
 =============== ============ ==============================================
 
-``.npz`` files are read with ``allow_pickle=False``. Official SMPL ``.pkl`` files hold chumpy
+Arrays are in SMPL's own y-up model frame; an ``.npz`` holding an ``up_axis='z'`` string entry is
+re-expressed in that frame on load. ``.npz`` files are read with ``allow_pickle=False``. Official SMPL ``.pkl`` files hold chumpy
 objects and a scipy sparse matrix; they are read by :class:`RestrictedUnpickler`, which maps those
 classes to inert stand-ins and refuses every other class, so a crafted pickle cannot run code.
 """
@@ -23,6 +24,8 @@ from __future__ import annotations
 
 import io
 import pickle
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -113,6 +116,13 @@ class _CsrStandIn(_SparseStandIn):
         super().__setstate__(dict(state, _kind="csr"))
 
 
+def _latin1_encode(text, encoding="latin1"):
+    """The only codec use a pickle of arrays needs: str -> bytes; no other codec is reachable."""
+    if not isinstance(text, str) or encoding not in ("latin1", "latin-1"):
+        raise pickle.UnpicklingError(f"refusing codec {encoding!r}")
+    return text.encode("latin1")
+
+
 def _reconstruct(cls, base, state):
     """Stand-in for copyreg._reconstructor that only ever builds our own inert classes."""
     if cls not in (_ChumpyStandIn, _SparseStandIn, _CsrStandIn):
@@ -128,6 +138,9 @@ _NUMPY_ALLOWED = {
     ("numpy", "ndarray"),
     ("numpy", "dtype"),
 }
+
+
+_SAFE_BUILTINS = {"object": object, "set": set, "frozenset": frozenset}  # chumpy state holds sets
 
 
 class RestrictedUnpickler(pickle.Unpickler):
@@ -149,8 +162,10 @@ class RestrictedUnpickler(pickle.Unpickler):
                 return _CsrStandIn
         if (module, name) in {("copy_reg", "_reconstructor"), ("copyreg", "_reconstructor")}:
             return _reconstruct
-        if (module, name) in {("__builtin__", "object"), ("builtins", "object")}:
-            return object
+        if module in ("__builtin__", "builtins") and name in _SAFE_BUILTINS:
+            return _SAFE_BUILTINS[name]
+        if (module, name) == ("_codecs", "encode"):  # bytes inside protocol-2 pickles written by Python 3
+            return _latin1_encode
         raise pickle.UnpicklingError(f"refusing to load global {module}.{name} from a pickle")
 
 
@@ -238,7 +253,27 @@ def arrays_from_dict(raw: dict, *, source: str = "body model") -> SmplArrays:
         if k not in REQUIRED_KEYS and is_text:
             meta[k] = str(val)
     meta.setdefault("source", source)
+    up = meta.pop("up_axis", "y").lower()
+    if up not in ("y", "z"):
+        raise BadInput(f"{source}: up_axis is {up!r}; expected 'y' (SMPL's own frame) or 'z'")
+    if up == "z":
+        v, sd, pd = _z_up_to_model_frame(v, sd, pd)
     return SmplArrays(v, sd, pd, jr, w, parents, f, meta)
+
+
+def _z_up_to_model_frame(v, sd, pd):
+    """Re-express arrays stored z-up in SMPL's y-up model frame (the frame skinning works in).
+
+    Positions and shape directions rotate by Q^T. A pose blend shape maps vec(R - I) of a joint's
+    rotation to an offset; with R_z = Q R Q^T, the block becomes Q^T P_z (Q kron Q) (row-major vec).
+    """
+    Q = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    v = v @ Q
+    sd = np.einsum("dc,vds->vcs", Q, sd)
+    n_v, _, n_p = pd.shape
+    blocks = pd.reshape(n_v, 3, n_p // 9, 9)
+    blocks = np.einsum("dc,vdjk,kl->vcjl", Q, blocks, np.kron(Q, Q))
+    return v, sd, blocks.reshape(n_v, 3, n_p)
 
 
 def load_body_arrays(path: str | Path) -> SmplArrays:
@@ -254,7 +289,7 @@ def load_body_arrays(path: str | Path) -> SmplArrays:
         try:
             with np.load(path, allow_pickle=False) as z:
                 raw = {k: z[k] for k in z.files}
-        except (ValueError, OSError, EOFError) as exc:
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
             raise BadInput(f"body model {str(path)!r}: not a readable .npz ({exc})") from None
     elif suffix in (".pkl", ".pickle"):
         with path.open("rb") as fh:
