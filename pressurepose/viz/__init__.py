@@ -1,0 +1,1 @@
+"""Pictures: body meshes, capsules, pressure images (matplotlib, headless-safe)."""
