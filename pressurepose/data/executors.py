@@ -1,0 +1,207 @@
+"""Where work units run: this process, a pool of local processes, or a Ray cluster.
+
+:func:`run_units` hands each finished unit to ``on_result`` in the calling process, retries a failed
+unit up to ``retries`` more times (a crashed worker process counts as a failure of the units it was
+running), and raises :class:`GenerationError` naming the unit when it keeps failing. Nothing is ever
+dropped silently.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue as queue_module
+import time
+from collections import deque
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Callable, Sequence
+
+from pressurepose.data.pipeline import (AttemptsExhausted, GenerationError, Progress, UnitResult, WorkUnit,
+                                        format_failure, run_unit)
+from pressurepose.errors import BadInput
+
+OnResult = Callable[[UnitResult], None]
+OnFailure = Callable[[WorkUnit, str], None]
+
+
+def run_units(units: Sequence[WorkUnit], *, workers: int = 1, ray_address: str | None = None,
+              retries: int = 2, on_result: OnResult, on_progress: Progress | None = None,
+              on_failure: OnFailure | None = None) -> int:
+    """Run ``units``; returns how many retries were needed."""
+    if workers < 1:
+        raise BadInput(f"workers = {workers}; expected at least 1")
+    if retries < 0:
+        raise BadInput(f"retries = {retries}; expected 0 or more")
+    if not units:
+        return 0
+    if ray_address:
+        return _run_ray(units, ray_address, retries, on_result, on_failure)
+    if workers == 1:
+        return _run_here(units, retries, on_result, on_progress, on_failure)
+    return _run_pool(units, workers, retries, on_result, on_progress, on_failure)
+
+
+class _Retries:
+    def __init__(self, retries: int, on_failure: OnFailure | None):
+        self.retries, self.on_failure, self.used = retries, on_failure, {}
+
+    def failed(self, unit: WorkUnit, exc: BaseException) -> None:
+        """Record a failure; raise GenerationError when the unit has no retries left."""
+        message = format_failure(unit, exc)
+        if isinstance(exc, AttemptsExhausted):
+            raise GenerationError(f"{unit} cannot be made: {exc}") from exc
+        n = self.used.get(unit.shard, 0) + 1
+        self.used[unit.shard] = n
+        if n > self.retries:
+            raise GenerationError(f"{unit} failed {n} times; giving up. Last error:\n{message}") from exc
+        if self.on_failure:
+            self.on_failure(unit, message)
+
+    @property
+    def total(self) -> int:
+        return sum(self.used.values())
+
+
+# --------------------------------------------------------------------------- in this process
+
+
+def _run_here(units, retries, on_result, on_progress, on_failure) -> int:
+    tracker = _Retries(retries, on_failure)
+    todo = deque(units)
+    while todo:
+        unit = todo.popleft()
+        try:
+            result = run_unit(unit, on_progress)
+        except Exception as exc:  # noqa: BLE001 - any producer error is a unit failure to retry
+            tracker.failed(unit, exc)
+            todo.appendleft(unit)
+            continue
+        on_result(result)
+    return tracker.total
+
+
+# --------------------------------------------------------------------------- local processes
+
+_EVENTS = None  # the worker's progress queue (set by _init_worker)
+
+
+def _init_worker(events) -> None:
+    global _EVENTS
+    _EVENTS = events
+
+
+def _run_unit_in_worker(unit: WorkUnit) -> UnitResult:
+    pending = [0, 0]
+    last = [time.monotonic()]
+
+    def report(shard: int, accepted: int, rejected: int) -> None:
+        pending[0] += accepted
+        pending[1] += rejected
+        now = time.monotonic()
+        if now - last[0] > 0.2:
+            _EVENTS.put((shard, pending[0], pending[1]))
+            pending[0] = pending[1] = 0
+            last[0] = now
+
+    result = run_unit(unit, report)
+    if pending[0] or pending[1]:
+        _EVENTS.put((unit.shard, pending[0], pending[1]))
+    return result
+
+
+def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> int:
+    tracker = _Retries(retries, on_failure)
+    ctx = mp.get_context("spawn")  # no fork: safe with threads (torch, MuJoCo) in the parent
+    events = ctx.Queue()
+    todo = deque(units)
+
+    def drain() -> None:
+        while True:
+            try:
+                shard, accepted, rejected = events.get_nowait()
+            except queue_module.Empty:
+                return
+            if on_progress:
+                on_progress(shard, accepted, rejected)
+
+    def new_pool() -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker, initargs=(events,))
+
+    pool = new_pool()
+    running: dict = {}
+    try:
+        while todo or running:
+            while todo and len(running) < workers:  # only running units are in flight
+                unit = todo.popleft()
+                running[pool.submit(_run_unit_in_worker, unit)] = unit
+            done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+            drain()
+            broken = False
+            for fut in done:
+                unit = running.pop(fut)
+                try:
+                    result = fut.result()
+                except BrokenProcessPool as exc:
+                    broken = True
+                    tracker.failed(unit, exc)
+                    todo.appendleft(unit)
+                except Exception as exc:  # noqa: BLE001 - any worker error is a unit failure to retry
+                    tracker.failed(unit, exc)
+                    todo.appendleft(unit)
+                else:
+                    on_result(result)
+            if broken:  # a worker process died: every unit still in flight died with it
+                for fut, unit in list(running.items()):
+                    tracker.failed(unit, BrokenProcessPool("a worker process died"))
+                    todo.appendleft(unit)
+                running.clear()
+                pool.shutdown(wait=False, cancel_futures=True)
+                pool = new_pool()
+        drain()
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+    return tracker.total
+
+
+# --------------------------------------------------------------------------- Ray
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise BadInput("--ray needs the optional Ray package: pip install 'pressurepose[ray]'") from None
+    return ray
+
+
+def _run_ray(units, address, retries, on_result, on_failure) -> int:
+    """Run units as Ray tasks (one CPU each). ``address`` 'local' starts a private local instance;
+    otherwise it is passed to ``ray.init`` (e.g. 'auto' or 'ray://head:10001'). Every node needs
+    pressurepose installed; results come back to this process, so no shared disk is needed."""
+    ray = _import_ray()
+    started = not ray.is_initialized()
+    if started:
+        ray.init(address=None if address == "local" else address, include_dashboard=False,
+                 log_to_driver=False, configure_logging=False)
+    tracker = _Retries(retries, on_failure)
+    task = ray.remote(num_cpus=1, max_retries=0)(run_unit)
+    refs = {task.remote(unit): unit for unit in units}
+    try:
+        while refs:
+            ready, _ = ray.wait(list(refs), num_returns=1, timeout=1.0)
+            for ref in ready:
+                unit = refs.pop(ref)
+                try:
+                    result = ray.get(ref)
+                except Exception as exc:  # noqa: BLE001 - task errors and lost workers alike
+                    cause = getattr(exc, "cause", None)
+                    tracker.failed(unit, cause if isinstance(cause, AttemptsExhausted) else exc)
+                    refs[task.remote(unit)] = unit
+                else:
+                    on_result(result)
+    finally:
+        for ref in refs:
+            ray.cancel(ref, force=True)
+        if started:
+            ray.shutdown()
+    return tracker.total

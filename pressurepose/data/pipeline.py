@@ -1,0 +1,254 @@
+"""Dataset generation: plan work units, skip finished shards, run the rest, commit them atomically.
+
+A work unit is (config, shard): the samples ``config.shard_range(shard)``. Sample ``i`` is made by
+calling the config's producer with :func:`~pressurepose.data.producers.attempt_rng` for attempts
+0, 1, 2, ... until it returns a Sample; so a unit's result depends only on (config, shard) and any
+shard can be regenerated anywhere, in any order, by any number of workers.
+
+Workers return a shard's bytes; only the coordinating process touches the output directory, so the
+same code runs on local processes and on Ray nodes without a shared file system.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from pressurepose import __version__
+from pressurepose.data.producers import Rejected, attempt_rng, resolve_producer
+from pressurepose.data.schema import GenerationConfig, Sample
+from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, is_temp_name,
+                                     sha256_bytes, shard_name, stage_bytes, verify_shard)
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import get_mat
+
+
+class GenerationError(RuntimeError):
+    """A work unit kept failing after its retries (the message names the unit and the cause)."""
+
+
+class AttemptsExhausted(GenerationError):
+    """A sample index was rejected ``max_attempts`` times in a row (deterministic: not retried)."""
+
+
+@dataclass(frozen=True)
+class WorkUnit:
+    config: GenerationConfig
+    shard: int
+
+    @property
+    def indices(self) -> range:
+        return self.config.shard_range(self.shard)
+
+    def __str__(self) -> str:
+        return f"shard {self.shard} (samples {self.indices.start}..{self.indices.stop - 1})"
+
+
+@dataclass(frozen=True)
+class UnitResult:
+    shard: int
+    data: bytes
+    count: int
+    attempts: int
+    rejections: dict
+    seconds: float
+
+
+# progress callback: (shard, accepted, rejected) increments, called after every attempt
+Progress = Callable[[int, int, int], None]
+
+
+def plan_units(config: GenerationConfig) -> list[WorkUnit]:
+    """All work units of a dataset, in shard order."""
+    return [WorkUnit(config, k) for k in range(config.num_shards)]
+
+
+def make_sample(config: GenerationConfig, index: int, producer=None,
+                progress: Progress | None = None, shard: int = -1) -> tuple[Sample, int, dict[str, int]]:
+    """Sample ``index`` of a dataset: (sample, accepted attempt number, rejections by cause)."""
+    producer = producer or resolve_producer(config.producer)
+    shape = get_mat(config.mat).shape
+    rejections: dict[str, int] = {}
+    for attempt in range(config.max_attempts):
+        out = producer(config, attempt_rng(config, index, attempt))
+        if isinstance(out, Rejected):
+            rejections[out.cause] = rejections.get(out.cause, 0) + 1
+            if progress:
+                progress(shard, 0, 1)
+            continue
+        if not isinstance(out, Sample):
+            raise GenerationError(f"producer {config.producer!r} returned {type(out).__name__}; "
+                                  f"expected Sample or Rejected")
+        if out.gender != config.gender or out.partition != config.partition:
+            raise GenerationError(f"producer {config.producer!r} returned a {out.gender}/{out.partition} "
+                                  f"sample for a {config.gender}/{config.partition} config")
+        sample = dataclasses.replace(out, index=index).validate(shape, what=f"sample {index}")
+        if progress:
+            progress(shard, 1, 0)
+        return sample, attempt, rejections
+    raise AttemptsExhausted(f"sample {index} was rejected {config.max_attempts} times in a row "
+                            f"({rejections}); raise max_attempts or fix the producer")
+
+
+def run_unit(unit: WorkUnit, progress: Progress | None = None) -> UnitResult:
+    """Produce one shard and return its bytes (pure: touches no files)."""
+    t0 = time.perf_counter()
+    producer = resolve_producer(unit.config.producer)
+    samples, attempts, rejections = [], [], {}
+    for i in unit.indices:
+        s, a, rej = make_sample(unit.config, i, producer, progress, unit.shard)
+        samples.append(s)
+        attempts.append(a)
+        for cause, n in rej.items():
+            rejections[cause] = rejections.get(cause, 0) + n
+    data = encode_shard(unit.config, unit.shard, samples, attempts, rejections)
+    return UnitResult(unit.shard, data, len(samples), len(samples) + sum(rejections.values()),
+                      rejections, time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- resuming
+
+
+def _config_difference(a: GenerationConfig, b: GenerationConfig) -> str:
+    da, db = a.to_dict(), b.to_dict()
+    return ", ".join(f"{k}: {da[k]!r} on disk vs {db[k]!r} now" for k in da if da[k] != db.get(k))
+
+
+def open_output(out: Path, config: GenerationConfig) -> Manifest:
+    """Load or create the manifest of ``out`` for ``config``. Refuses (BadInput) a directory that
+    holds another config's dataset, another package version's, or files that are not a dataset's."""
+    out.mkdir(parents=True, exist_ok=True)
+    if (out / MANIFEST).exists():
+        manifest = Manifest.load(out)
+        if manifest.config != config:
+            raise BadInput(f"{out} holds a dataset made with a different config "
+                           f"({_config_difference(manifest.config, config)}); nothing was changed. "
+                           f"Use another --out, or the same options to resume")
+        if manifest.package_version != __version__:
+            raise BadInput(f"{out} was made by pressurepose {manifest.package_version}, this is "
+                           f"{__version__}; shards from two versions may differ, so nothing was changed. "
+                           f"Use another --out")
+        return manifest
+    strays = sorted(p.name for p in out.glob("shard-*.h5"))
+    if strays:
+        raise BadInput(f"{out} has shard files ({', '.join(strays[:3])}...) but no {MANIFEST}; "
+                       f"refusing to mix datasets. Use an empty --out")
+    manifest = Manifest.new(config)
+    manifest.save(out)
+    return manifest
+
+
+def check_shards(out: Path, manifest: Manifest, repair: bool = False) -> list[int]:
+    """Shards still to make. Finished shards are verified by checksum; a corrupt one raises BadInput
+    naming it (with ``repair``, it is renamed ``*.corrupt-<time>`` and made again)."""
+    for p in out.iterdir():
+        if is_temp_name(p.name):
+            p.unlink(missing_ok=True)  # a partial write from an interrupted run
+    todo, corrupt = [], []
+    for k in range(manifest.config.num_shards):
+        record = manifest.shards.get(k)
+        path = out / shard_name(k)
+        if record is None:
+            if path.exists():
+                corrupt.append(f"{path} is not recorded in the manifest")
+            todo.append(k)
+        elif not path.exists():
+            todo.append(k)  # recorded, then interrupted before the rename: make it again
+        else:
+            problem = verify_shard(out, record)
+            if problem:
+                corrupt.append(problem)
+                todo.append(k)
+    if corrupt and not repair:
+        raise BadInput("; ".join(corrupt) + ". Nothing was overwritten: rerun with --repair to set "
+                       "bad shards aside (renamed *.corrupt-<time>) and make them again")
+    if corrupt:
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        for k in todo:
+            path = out / shard_name(k)
+            if path.exists():
+                os.replace(path, path.with_name(f"{path.name}.corrupt-{stamp}"))
+                manifest.shards.pop(k, None)
+    return todo
+
+
+def _commit_result(out: Path, manifest: Manifest, result: UnitResult) -> None:
+    name = shard_name(result.shard)
+    digest = sha256_bytes(result.data)
+    previous = manifest.shards.get(result.shard)
+    if previous is not None and previous.sha256 != digest:
+        raise GenerationError(f"{name} came out different from the first time it was made (sha256 "
+                              f"{digest[:16]}... vs {previous.sha256[:16]}...): the producer is not "
+                              f"deterministic. Nothing was overwritten")
+    tmp = stage_bytes(out / name, result.data)
+    manifest.shards[result.shard] = ShardRecord(name, digest, result.count, result.attempts, result.rejections)
+    try:
+        manifest.save(out)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    commit(tmp, out / name)
+
+
+# --------------------------------------------------------------------------- the run
+
+
+@dataclass
+class RunReport:
+    out: Path
+    manifest: Manifest
+    made: int          # shards made by this run
+    skipped: int       # shards already finished
+    seconds: float
+    retries: int
+
+
+def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray_address: str | None = None,
+             retries: int = 2, progress: bool = True, repair: bool = False,
+             only_shards: list[int] | None = None) -> RunReport:
+    """Make (or finish) the dataset of ``config`` in ``out``; rerunning continues where it stopped.
+
+    workers: local processes (1 = in this process); ray_address: run on Ray instead (``"local"`` starts
+    a local instance); retries: extra tries for a failing unit before GenerationError; repair: set
+    corrupt shards aside and remake them; only_shards: make just these shards (the rest may stay
+    missing). Returns a :class:`RunReport`.
+    """
+    from pressurepose.data.executors import run_units
+    from pressurepose.data.progress import ProgressBar
+
+    t0 = time.perf_counter()
+    out = Path(out)
+    get_mat(config.mat)  # unknown mats fail here, before anything is written
+    resolve_producer(config.producer)
+    manifest = open_output(out, config)
+    todo = check_shards(out, manifest, repair)
+    if only_shards is not None:
+        bad = [k for k in only_shards if not 0 <= k < config.num_shards]
+        if bad:
+            raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")
+        todo = [k for k in todo if k in set(only_shards)]
+    skipped = config.num_shards - len(todo)
+    bar = ProgressBar(total=config.count, initial=manifest.samples_done, enabled=progress,
+                      desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
+    try:
+        retried = run_units([WorkUnit(config, k) for k in todo], workers=workers, ray_address=ray_address,
+                            retries=retries, on_result=lambda r: (_commit_result(out, manifest, r),
+                                                                  bar.unit_done(r)),
+                            on_progress=bar.attempt, on_failure=bar.unit_failed)
+    finally:
+        bar.close()
+    if len(manifest.shards) == config.num_shards and not manifest.complete:
+        manifest.complete = True
+        manifest.save(out)
+    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried)
+
+
+def format_failure(unit: WorkUnit, exc: BaseException) -> str:
+    """One line naming the unit and the error, plus the worker's traceback tail when there is one."""
+    tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)).strip().splitlines()
+    return f"{unit}: {type(exc).__name__}: {exc}\n    " + "\n    ".join(tb[-6:])

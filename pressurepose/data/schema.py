@@ -1,0 +1,236 @@
+"""What a dataset holds: the per-sample record and the configuration that produced it.
+
+A labelled sample (:class:`Sample`), in the bed frame (metres, z up; origin at the head-end corner of
+the mat's sensing area on the unloaded mattress top; x across the bed along the mat's columns, y
+toward the foot along its rows, row 0 at the head):
+
+============== =============== ===========================================================
+field          shape / type    meaning
+============== =============== ===========================================================
+``pressure``   (R, C) float32  pressure per taxel, mmHg
+``force``      (R, C) float32  normal force per taxel, N
+``depth``      (R, C) float32  height of the body's lowest surface over each taxel above the
+                               unloaded mattress top, m (negative = sunk into the mattress,
+                               the sign of PressurePose's ``mesh_depth``; +1 m where no body
+                               is above, as ``pressurepose.sim.press`` reports it)
+``contact``    (R, C) bool     taxel touched by the body (``depth < 0``)
+``betas``      (10,) float32   body shape
+``pose``       (72,) float32   SMPL-order axis-angle, root orientation first, rad
+``transl``     (3,) float32    the body model's translation: ``BodyModel.forward(betas, pose,
+                               transl)`` puts the body where it lies, m
+``joints``     (24, 3) float32 joint positions, m
+``gender``     str             ``"f"`` or ``"m"``
+``mass``       float           kg
+``height``     float           m
+``partition``  str             one of :data:`PARTITIONS`
+``index``      int             sample index within its dataset (set by the pipeline)
+============== =============== ===========================================================
+
+A dataset on disk is a pure function of its :class:`GenerationConfig`: see ``pipeline.py``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import get_mat
+
+# Names follow the paper's appendix A.7 table (REFERENCE section 2).
+PARTITIONS: tuple[str, ...] = (
+    "general",                # roll U(-pi, pi): supine, lateral, prone and between
+    "general_supine",         # roll 0
+    "hands_behind_head",      # supine, hands behind the head
+    "prone_hands_up",         # roll pi, hands above the shoulders
+    "supine_crossed_legs",    # supine, feet crossed
+    "supine_straight_limbs",  # supine, knees and elbows straight
+)
+GENDERS: tuple[str, ...] = ("f", "m")
+NUM_BETAS = 10
+NUM_JOINTS = 24
+POSE_SIZE = 72
+
+IMAGE_FIELDS: tuple[str, ...] = ("pressure", "force", "depth", "contact")
+LABEL_FIELDS: tuple[str, ...] = ("betas", "pose", "transl", "joints", "mass", "height")
+# float arrays of a sample, with their per-sample shapes ((R, C) images resolved per mat)
+_LABEL_SHAPES: dict[str, tuple[int, ...]] = {
+    "betas": (NUM_BETAS,), "pose": (POSE_SIZE,), "transl": (3,), "joints": (NUM_JOINTS, 3),
+    "mass": (), "height": (),
+}
+
+
+def check_partition(name: str) -> str:
+    """Return ``name`` if it is a known partition, else BadInput listing the known ones."""
+    if name not in PARTITIONS:
+        raise BadInput(f"partition {name!r} is not known; expected one of {', '.join(PARTITIONS)}")
+    return name
+
+
+def check_gender(gender: str) -> str:
+    """'f' / 'female' -> 'f', 'm' / 'male' -> 'm'; BadInput otherwise."""
+    g = {"f": "f", "female": "f", "m": "m", "male": "m"}.get(str(gender).strip().lower())
+    if g is None:
+        raise BadInput(f"gender {gender!r} is not known; expected f or m")
+    return g
+
+
+@dataclass(frozen=True, eq=False)
+class Sample:
+    """One labelled pressure image (see the module docstring for fields, shapes and units)."""
+
+    pressure: np.ndarray
+    force: np.ndarray
+    depth: np.ndarray
+    contact: np.ndarray
+    betas: np.ndarray
+    pose: np.ndarray
+    transl: np.ndarray
+    joints: np.ndarray
+    gender: str
+    mass: float
+    height: float
+    partition: str
+    index: int = -1
+
+    def validate(self, shape: tuple[int, int] | None = None, *, what: str = "sample") -> "Sample":
+        """Check shapes, dtypes and finiteness; return self. ``shape`` is the mat's (rows, cols).
+
+        Raises BadInput naming the field and what was expected.
+        """
+        img_shape = shape or np.shape(self.pressure)
+        if len(img_shape) != 2:
+            raise BadInput(f"{what}: pressure has shape {np.shape(self.pressure)}; expected (rows, cols)")
+        for name in IMAGE_FIELDS:
+            arr = np.asarray(getattr(self, name))
+            if arr.shape != tuple(img_shape):
+                raise BadInput(f"{what}: {name} has shape {arr.shape}; the mat is "
+                               f"{img_shape[0]} x {img_shape[1]}")
+        for name, shp in _LABEL_SHAPES.items():
+            arr = np.asarray(getattr(self, name))
+            if arr.shape != shp:
+                raise BadInput(f"{what}: {name} has shape {arr.shape}; expected {shp}")
+        for name in ("pressure", "force", "depth", *_LABEL_SHAPES):
+            if not np.all(np.isfinite(np.asarray(getattr(self, name), dtype=np.float64))):
+                raise BadInput(f"{what}: {name} contains NaN or infinite values")
+        if np.any(np.asarray(self.pressure) < 0) or np.any(np.asarray(self.force) < 0):
+            raise BadInput(f"{what}: pressure and force must be >= 0")
+        check_gender(self.gender)
+        check_partition(self.partition)
+        return self
+
+
+def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
+    if options is None:
+        return ()
+    items = options.items() if isinstance(options, dict) else options
+    out = []
+    for key, value in items:
+        if not isinstance(value, (str, int, float, bool)):
+            raise BadInput(f"producer option {key!r} = {value!r}: expected a string, number or bool")
+        out.append((str(key), value))
+    return tuple(sorted(out))
+
+
+@dataclass(frozen=True)
+class GenerationConfig:
+    """Everything that decides a dataset's content; saved in its manifest.
+
+    partition, gender ('f' | 'm'), limbs_on_bed (the paper's "plo": limbs start over the bed),
+    count (samples), seed; mat (sensor preset name); shard_size (samples per file); producer (name in
+    ``pressurepose.data.producers.PRODUCERS`` or ``"module:function"``); max_attempts (tries per
+    sample before the run fails); options (producer-specific settings, str -> str/number/bool).
+
+    Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, i) for its random draws, so
+    ``count`` and ``shard_size`` do not change it.
+    """
+
+    partition: str
+    gender: str
+    limbs_on_bed: bool = False
+    count: int = 1000
+    seed: int = 0
+    mat: str = "boditrak_bt3510"
+    shard_size: int = 256
+    producer: str = "synthetic"
+    max_attempts: int = 200
+    options: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
+
+    def __post_init__(self):
+        check_partition(self.partition)
+        object.__setattr__(self, "gender", check_gender(self.gender))
+        object.__setattr__(self, "options", _freeze_options(self.options))
+        for name in ("count", "shard_size", "max_attempts"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
+                raise BadInput(f"{name} = {value!r}; expected a positive integer")
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+            raise BadInput(f"seed = {self.seed!r}; expected an integer >= 0")
+        if not isinstance(self.limbs_on_bed, (bool, np.bool_)):
+            raise BadInput(f"limbs_on_bed = {self.limbs_on_bed!r}; expected true or false")
+        object.__setattr__(self, "mat", get_mat(self.mat).name)
+        if not isinstance(self.producer, str) or not self.producer:
+            raise BadInput(f"producer = {self.producer!r}; expected a producer name")
+
+    # ---------------------------------------------------------------- derived
+    @property
+    def option_dict(self) -> dict[str, Any]:
+        return dict(self.options)
+
+    def option(self, key: str, default: Any = None) -> Any:
+        return self.option_dict.get(key, default)
+
+    @property
+    def num_shards(self) -> int:
+        return -(-self.count // self.shard_size)
+
+    def shard_range(self, shard: int) -> range:
+        """Sample indices of shard ``shard``."""
+        start = shard * self.shard_size
+        return range(start, min(start + self.shard_size, self.count))
+
+    @property
+    def stream_key(self) -> int:
+        """32-bit key of (partition, gender, limbs_on_bed) mixed into every sample's seed, so that
+        two partitions run with the same seed still draw different bodies."""
+        text = f"{self.partition}|{self.gender}|{int(bool(self.limbs_on_bed))}"
+        return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
+
+    # ---------------------------------------------------------------- serialising
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["options"] = dict(self.options)
+        d["limbs_on_bed"] = bool(self.limbs_on_bed)
+        return d
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @property
+    def digest(self) -> str:
+        """sha256 of the canonical JSON: the dataset's identity."""
+        return hashlib.sha256(self.to_json().encode()).hexdigest()
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], *, what: str = "config") -> "GenerationConfig":
+        if not isinstance(d, dict):
+            raise BadInput(f"{what}: expected a JSON object, got {type(d).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
+        try:
+            return cls(**d)
+        except TypeError as exc:
+            raise BadInput(f"{what}: {exc}") from None
+
+    @classmethod
+    def from_json(cls, text: str, *, what: str = "config") -> "GenerationConfig":
+        try:
+            return cls.from_dict(json.loads(text), what=what)
+        except json.JSONDecodeError as exc:
+            raise BadInput(f"{what}: not valid JSON ({exc})") from None

@@ -1,0 +1,291 @@
+"""On-disk format: HDF5 shards of a fixed number of samples, plus a JSON manifest, written atomically.
+
+A dataset directory holds ``manifest.json`` and ``shard-00000.h5``, ``shard-00001.h5``, ... Shard
+``k`` holds samples ``k * shard_size`` up to the next shard's first (see
+:meth:`GenerationConfig.shard_range`). Every file is first written under a hidden temporary name
+(``.shard-00003.h5.tmp-<pid>-<random>``), flushed to disk, and only then renamed to its final name,
+so a final name always means a complete file; leftovers with temporary names are partial writes.
+
+A shard's sha256 is recorded in the manifest BEFORE the shard is renamed into place: a shard file
+on disk always has a recorded checksum, and a recorded checksum without a file means "regenerate".
+
+Shard layout (N samples, mat R x C): datasets ``pressure``, ``force``, ``depth`` (N, R, C) float32,
+``contact`` (N, R, C) bool, ``betas`` (N, 10), ``pose`` (N, 72), ``transl`` (N, 3), ``joints``
+(N, 24, 3), ``mass``, ``height`` (N,) float32, ``index`` (N,) int64, ``attempt`` (N,) int32 (the attempt
+that was accepted), ``gender`` (N,) S1, ``partition`` (N,) S32; gzip + shuffle compressed.
+Attributes: ``config`` (JSON), ``config_digest``, ``shard``, ``package_version``, ``rejections``
+(JSON cause -> count).
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import io
+import json
+import os
+import secrets
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import h5py
+import numpy as np
+
+from pressurepose import __version__
+from pressurepose.data.schema import GenerationConfig, Sample
+from pressurepose.errors import BadInput
+
+MANIFEST = "manifest.json"
+FORMAT = "pressurepose-dataset"
+FORMAT_VERSION = 1
+ARRAY_FIELDS: tuple[str, ...] = ("pressure", "force", "depth", "contact", "betas", "pose", "transl",
+                                 "joints", "mass", "height")
+_F32 = ("pressure", "force", "depth", "betas", "pose", "transl", "joints", "mass", "height")
+
+
+def shard_name(shard: int) -> str:
+    return f"shard-{shard:05d}.h5"
+
+
+def is_temp_name(name: str) -> bool:
+    """True for the hidden temporary names used while writing (never a finished file)."""
+    return name.startswith(".") and ".tmp-" in name
+
+
+# --------------------------------------------------------------------------- atomic files
+
+
+def _fsync_dir(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # some platforms cannot open directories
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def stage_bytes(path: Path, data: bytes) -> Path:
+    """Write ``data`` to a hidden temporary file next to ``path`` and flush it to disk.
+
+    Returns the temporary path (rename it with :func:`commit`). On any error the temporary file is
+    removed and ``path`` is untouched; a full disk raises BadInput saying so.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise BadInput(f"no space left on the device writing {path}; finished files are kept, "
+                           f"free some space and rerun the same command") from None
+        raise
+    return tmp
+
+
+def commit(tmp: Path, path: Path) -> None:
+    """Atomically rename a staged temporary file to its final name."""
+    os.replace(tmp, path)
+    _fsync_dir(Path(path).parent)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    commit(stage_bytes(path, data), path)
+
+
+def sha256_bytes(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+# --------------------------------------------------------------------------- shards
+
+
+def encode_shard(config: GenerationConfig, shard: int, samples: Sequence[Sample], attempts: Sequence[int],
+                 rejections: dict[str, int]) -> bytes:
+    """The bytes of an HDF5 shard holding ``samples`` (validated against the mat shape).
+
+    The bytes depend only on the arguments: the same samples always give the same file.
+    """
+    if not samples:
+        raise BadInput(f"shard {shard}: no samples to write")
+    buf = io.BytesIO()
+    n = len(samples)
+    with h5py.File(buf, "w", libver=("earliest", "v110")) as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["config"] = config.to_json()
+        f.attrs["config_digest"] = config.digest
+        f.attrs["shard"] = shard
+        f.attrs["package_version"] = __version__
+        f.attrs["rejections"] = json.dumps(dict(sorted(rejections.items())))
+        for name in ARRAY_FIELDS:
+            dtype = np.float32 if name in _F32 else np.bool_
+            arr = np.stack([np.asarray(getattr(s, name), dtype=dtype) for s in samples])
+            chunks = (min(n, 64),) + arr.shape[1:] if arr.ndim > 1 else None
+            f.create_dataset(name, data=arr, chunks=chunks, compression="gzip", compression_opts=4,
+                             shuffle=arr.ndim > 1)
+        f.create_dataset("index", data=np.array([s.index for s in samples], dtype=np.int64))
+        f.create_dataset("attempt", data=np.asarray(attempts, dtype=np.int32))
+        f.create_dataset("gender", data=np.array([s.gender.encode() for s in samples], dtype="S1"))
+        f.create_dataset("partition", data=np.array([s.partition.encode() for s in samples], dtype="S32"))
+    return buf.getvalue()
+
+
+def _open_shard(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except (OSError, ValueError) as exc:
+        raise BadInput(f"shard {path} is corrupt or truncated (cannot open as HDF5: {exc})") from None
+
+
+def read_shard_arrays(path: Path, fields: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """All (or the named) datasets of a shard as numpy arrays; strings decoded to str arrays."""
+    with _open_shard(path) as f:
+        names = list(fields) if fields is not None else list(f.keys())
+        out = {}
+        for name in names:
+            if name not in f:
+                raise BadInput(f"shard {path} has no field {name!r}; it has {', '.join(f.keys())}")
+            try:
+                arr = f[name][()]
+            except (OSError, ValueError) as exc:
+                raise BadInput(f"shard {path}: field {name!r} is unreadable ({exc})") from None
+            out[name] = arr.astype(str) if arr.dtype.kind == "S" else arr
+        return out
+
+
+def read_shard_attrs(path: Path) -> dict[str, Any]:
+    with _open_shard(path) as f:
+        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+
+
+def samples_from_arrays(arrays: dict[str, np.ndarray]) -> list[Sample]:
+    """Rebuild :class:`Sample` objects from a shard's arrays."""
+    n = len(arrays["index"])
+    return [Sample(pressure=arrays["pressure"][i], force=arrays["force"][i], depth=arrays["depth"][i],
+                   contact=arrays["contact"][i], betas=arrays["betas"][i], pose=arrays["pose"][i],
+                   transl=arrays["transl"][i], joints=arrays["joints"][i], gender=str(arrays["gender"][i]),
+                   mass=float(arrays["mass"][i]), height=float(arrays["height"][i]),
+                   partition=str(arrays["partition"][i]), index=int(arrays["index"][i]))
+            for i in range(n)]
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+@dataclass
+class ShardRecord:
+    """What the manifest knows about one finished shard."""
+
+    file: str
+    sha256: str
+    count: int
+    attempts: int
+    rejections: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass
+class Manifest:
+    """The dataset's manifest (``manifest.json``): config, version, per-shard checksums and stats."""
+
+    config: GenerationConfig
+    package_version: str = __version__
+    shards: dict[int, ShardRecord] = field(default_factory=dict)
+    created: str = ""
+    complete: bool = False
+
+    @property
+    def samples_done(self) -> int:
+        return sum(r.count for r in self.shards.values())
+
+    @property
+    def attempts(self) -> int:
+        return sum(r.attempts for r in self.shards.values())
+
+    @property
+    def rejections(self) -> dict[str, int]:
+        total: dict[str, int] = {}
+        for r in self.shards.values():
+            for cause, n in r.rejections.items():
+                total[cause] = total.get(cause, 0) + n
+        return dict(sorted(total.items()))
+
+    def to_dict(self) -> dict[str, Any]:
+        attempts = self.attempts
+        rejected = sum(self.rejections.values())
+        return {
+            "format": FORMAT, "format_version": FORMAT_VERSION,
+            "package_version": self.package_version, "created": self.created,
+            "config": self.config.to_dict(), "config_digest": self.config.digest,
+            "complete": self.complete, "num_shards": self.config.num_shards,
+            "counts": {"samples": self.samples_done, "target": self.config.count, "attempts": attempts,
+                       "rejected": rejected, "rejection_rate": (rejected / attempts) if attempts else 0.0,
+                       "rejections": self.rejections},
+            "shards": {shard_name(k): {"sha256": r.sha256, "count": r.count, "attempts": r.attempts,
+                                       "rejections": r.rejections}
+                       for k, r in sorted(self.shards.items())},
+        }
+
+    def save(self, directory: Path) -> None:
+        atomic_write_bytes(Path(directory) / MANIFEST,
+                           (json.dumps(self.to_dict(), indent=1, sort_keys=False) + "\n").encode())
+
+    @classmethod
+    def new(cls, config: GenerationConfig) -> "Manifest":
+        return cls(config=config, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+
+    @classmethod
+    def load(cls, directory: Path) -> "Manifest":
+        path = Path(directory) / MANIFEST
+        try:
+            raw = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise BadInput(f"{directory} is not a pressurepose dataset (no {MANIFEST})") from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise BadInput(f"manifest {path} is corrupt ({exc})") from None
+        if not isinstance(raw, dict) or raw.get("format") != FORMAT:
+            raise BadInput(f"manifest {path} is not a {FORMAT} manifest")
+        if raw.get("format_version") != FORMAT_VERSION:
+            raise BadInput(f"manifest {path} has format version {raw.get('format_version')}; "
+                           f"this pressurepose reads version {FORMAT_VERSION}")
+        config = GenerationConfig.from_dict(raw.get("config"), what=f"manifest {path} config")
+        shards = {}
+        for name, rec in raw.get("shards", {}).items():
+            try:
+                k = int(name.removeprefix("shard-").removesuffix(".h5"))
+                shards[k] = ShardRecord(file=name, sha256=str(rec["sha256"]), count=int(rec["count"]),
+                                        attempts=int(rec["attempts"]),
+                                        rejections={str(c): int(v) for c, v in rec.get("rejections", {}).items()})
+            except (KeyError, TypeError, ValueError) as exc:
+                raise BadInput(f"manifest {path}: bad entry for {name!r} ({exc})") from None
+        return cls(config=config, package_version=str(raw.get("package_version", "")), shards=shards,
+                   created=str(raw.get("created", "")), complete=bool(raw.get("complete", False)))
+
+
+def verify_shard(directory: Path, record: ShardRecord) -> str | None:
+    """None if the shard file's sha256 matches its record, else a sentence saying what is wrong."""
+    path = Path(directory) / record.file
+    if not path.is_file():
+        return f"{path} is missing"
+    digest = sha256_file(path)
+    if digest != record.sha256:
+        return (f"{path} is corrupt or truncated: sha256 {digest[:16]}... does not match the "
+                f"manifest's {record.sha256[:16]}...")
+    return None
