@@ -1,0 +1,136 @@
+"""Body speed: torch forward pass at batch 128 on CPU, and the per-sample capsule computation.
+
+    .venv/bin/python -m benchmarks.bench_body [--threads 1] [--repeats 5]
+
+Prints the figures and replaces the ``bench:body`` section of docs/RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from pressurepose.body import BodyModel
+from pressurepose.body.capsules import capsules_for, fit_capsules, posed_capsules
+from pressurepose.body.masses import segment_masses
+from pressurepose.body.model import asset_path
+from pressurepose.body.toy import toy_body_arrays
+
+RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
+
+
+def best_time(fn, repeats: int) -> float:
+    """Best wall time (s) of ``repeats`` calls after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def bench_forward(body, batch: int, repeats: int) -> dict[str, float]:
+    rng = np.random.default_rng(0)
+    out = {}
+    for dtype in (torch.float32, torch.float64):
+        layer = body.torch_layer(dtype=dtype)
+        betas = torch.as_tensor(rng.normal(0, 1, (batch, 10)), dtype=dtype)
+        pose = torch.as_tensor(rng.normal(0, 0.3, (batch, 72)), dtype=dtype)
+        transl = torch.zeros(batch, 3, dtype=dtype)
+
+        def run():
+            with torch.no_grad():
+                layer(betas=betas, global_orient=pose[:, :3], body_pose=pose[:, 3:], transl=transl)
+
+        def run_grad():
+            p = pose.clone().requires_grad_(True)
+            o = layer(betas=betas, global_orient=p[:, :3], body_pose=p[:, 3:], transl=transl)
+            o.vertices.sum().backward()
+
+        name = str(dtype).split(".")[-1]
+        out[f"forward {name}"] = best_time(run, repeats)
+        out[f"forward+backward {name}"] = best_time(run_grad, repeats)
+    return out
+
+
+def bench_capsules(body, repeats: int) -> dict[str, float]:
+    rng = np.random.default_rng(1)
+    betas = rng.uniform(-2, 2, 10)
+    pose = rng.normal(0, 0.3, (1, 72))
+    caps = capsules_for(body, betas)
+    out = {
+        "capsules_for (regressors)": best_time(lambda: capsules_for(body, betas), repeats),
+        "fit_capsules (direct fit)": best_time(lambda: fit_capsules(body, betas), repeats),
+        "posed_capsules (1 pose)": best_time(lambda: posed_capsules(body, caps, betas, pose), repeats),
+    }
+    for voxel in (0.002, 0.003, 0.005):
+        out[f"segment_masses, {voxel * 1000:.0f} mm voxels"] = best_time(
+            lambda: segment_masses(body, betas, caps=caps, voxel=voxel), repeats)
+    ref = segment_masses(body, betas, caps=caps, voxel=0.002).mass
+    errs = {}
+    for voxel in (0.003, 0.005, 0.008):
+        m = segment_masses(body, betas, caps=caps, voxel=voxel).mass
+        errs[f"{voxel * 1000:.0f} mm"] = float(np.max(np.abs(m - ref) / ref))
+    return out, errs
+
+
+def write_section(text: str) -> None:
+    begin, end = "<!-- bench:body -->", "<!-- /bench:body -->"
+    block = f"{begin}\n{text.rstrip()}\n{end}\n"
+    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
+    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
+    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(new)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
+    p.add_argument("--repeats", type=int, default=5, help="timed repeats; the best is reported (default 5)")
+    p.add_argument("--batch", type=int, default=128, help="forward-pass batch size (default 128)")
+    p.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
+    args = p.parse_args(argv)
+    torch.set_num_threads(args.threads)
+    if asset_path("female.npz").is_file():
+        body, label = BodyModel("female"), "shipped female model"
+    else:
+        body, label = BodyModel(toy_body_arrays()), "toy body (shipped models not baked yet)"
+    fwd = bench_forward(body, args.batch, args.repeats)
+    caps, errs = bench_capsules(body, args.repeats)
+    lines = [
+        "## Body model speed (`benchmarks/bench_body.py`)",
+        "",
+        f"{datetime.date.today().isoformat()}, {platform.platform()}, {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} CPUs, torch {torch.__version__} with {args.threads} thread(s); {label}, "
+        f"{body.num_vertices} vertices. Best of {args.repeats}.",
+        "",
+        f"| torch body layer, batch {args.batch}, CPU | ms per batch | ms per body |",
+        "|---|---|---|",
+        *[f"| {k} | {v * 1e3:.1f} | {v * 1e3 / args.batch:.3f} |" for k, v in fwd.items()],
+        "",
+        "| capsules, one sample (numpy) | ms |",
+        "|---|---|",
+        *[f"| {k} | {v * 1e3:.2f} |" for k, v in caps.items()],
+        "",
+        "Largest relative change of any capsule mass against the 2 mm voxel default: "
+        + ", ".join(f"{k} {v * 100:.2f} %" for k, v in errs.items()) + ".",
+    ]
+    text = "\n".join(lines)
+    print(text)
+    if not args.no_write:
+        write_section(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
