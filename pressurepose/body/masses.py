@@ -107,8 +107,9 @@ def _inside(ends: np.ndarray, radius: float, axes: tuple[np.ndarray, np.ndarray,
     """Boolean grid (nx, ny, nz): which points of the separable grid ``axes`` lie in the capsule."""
     a, b = ends
     L = float(np.linalg.norm(b - a))
-    u = (b - a) / L if L > 0 else np.zeros(3)
-    x, y, z = (axes[i] - a[i] for i in range(3))
+    u = ((b - a) / L if L > 0 else np.zeros(3)).astype(np.float32)
+    # float32: coordinates relative to the capsule end, so rounding is far below a voxel
+    x, y, z = ((axes[i] - a[i]).astype(np.float32) for i in range(3))
     proj = x[:, None, None] * u[0] + y[None, :, None] * u[1] + z[None, None, :] * u[2]
     r2 = (x * x)[:, None, None] + (y * y)[None, :, None] + (z * z)[None, None, :]
     s = np.clip(proj, 0.0, L)
@@ -150,6 +151,15 @@ def shared_volumes(ends: np.ndarray, radius: np.ndarray, voxel: float = DEFAULT_
         sl, m = masks[k]
         out[n] = np.sum(1.0 / count[sl][m]) * voxel**3
     return out
+
+
+def joint_frame_mass_properties(masses: CapsuleMasses, caps: Capsules) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of mass (20, 3) and inertia about it (20, 3, 3) in each capsule's rest joint frame
+    (origin at the joint, axes along the z-up world axes at rest): what a rigid body riding on the
+    joint needs, e.g. a MuJoCo body whose frame is the joint's."""
+    R = caps.rest_transform[:, :3, :3]
+    com = caps.center + np.einsum("kij,kj->ki", R, masses.com)
+    return com, R @ masses.inertia @ np.swapaxes(R, 1, 2)
 
 
 def rest_endpoints(body, caps: Capsules, betas) -> np.ndarray:

@@ -135,3 +135,19 @@ def test_human_masses(gender):
     for k, name in enumerate(CAPSULE_NAMES):
         if name.startswith("left_"):
             assert mean.mass[k] == pytest.approx(mean.mass[CAPSULE_NAMES.index("right_" + name[5:])], rel=0.02)
+
+
+def test_joint_frame_mass_properties_rotate_the_capsule_inertia():
+    from pressurepose.body.masses import joint_frame_mass_properties
+
+    body = BodyModel(toy_body_arrays())
+    betas = np.linspace(-1, 1, 10)
+    caps = fit_capsules(body, betas)
+    masses = segment_masses(body, betas, caps=caps)
+    com, inertia = joint_frame_mass_properties(masses, caps)
+    np.testing.assert_allclose(com, caps.center)
+    # the inertia about the capsule axis is the axial moment, across it the transverse one
+    axial = np.einsum("ki,kij,kj->k", caps.axis, inertia, caps.axis)
+    np.testing.assert_allclose(axial, masses.inertia[:, 2, 2])
+    np.testing.assert_allclose(np.trace(inertia, axis1=1, axis2=2),
+                               np.trace(masses.inertia, axis1=1, axis2=2))
