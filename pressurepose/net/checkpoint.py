@@ -1,0 +1,154 @@
+"""Saving and loading trained PressureNets without ever running code from a file.
+
+A model is two files: ``NAME.safetensors`` (weights; the format holds tensors only) and
+``NAME.json`` (the :class:`NetConfig`, the body models' identities, loss scales and training
+notes). A ``.pt`` file holding ``{"meta": <json text>, "state_dict": {name: tensor}}`` is also
+read, with ``torch.load(weights_only=True)``: a pickle that would build anything else is refused
+with BadInput. The body models are given by spec ("female", "male", "neutral", "toy" or an
+SMPL-format file); a loaded model is checked against the stored identity of its bodies.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import torch
+
+from pressurepose.body.model import BodyModel
+from pressurepose.errors import BadInput
+from pressurepose.net.model import GenderedBody, NetConfig, PressureNet
+
+FORMAT = "pressurepose.pressurenet/1"
+
+
+def body_model(spec: str) -> BodyModel:
+    """A BodyModel from a spec: 'female' / 'male' / 'neutral' (shipped), 'toy' (the tiny test
+    body) or the path of an SMPL-format .npz / .pkl file."""
+    if spec == "toy":
+        from pressurepose.body.toy import toy_body_arrays
+
+        return BodyModel(toy_body_arrays())
+    return BodyModel(spec)
+
+
+def body_spec(body: BodyModel) -> str:
+    """The spec that rebuilds ``body`` (see :func:`body_model`)."""
+    if body.arrays.meta.get("source") == "toy":
+        return "toy"
+    from pressurepose.body.model import asset_path
+
+    if body.gender in ("female", "male", "neutral") and body.path == asset_path(f"{body.gender}.npz"):
+        return body.gender
+    return str(body.path)
+
+
+def gendered_body(female: BodyModel, male: BodyModel) -> GenderedBody:
+    """The two-gender body layer of a PressureNet (one layer when both are the same model)."""
+    f = female.torch_layer()
+    return GenderedBody(f, f if male is female else male.torch_layer())
+
+
+def bodies_meta(female: BodyModel, male: BodyModel) -> dict:
+    return {g: {"spec": body_spec(b), "identity": b.identity} for g, b in (("female", female), ("male", male))}
+
+
+def _atomic_write(path: Path, write) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    write(tmp)
+    os.replace(tmp, path)
+
+
+def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, BodyModel], meta: dict | None = None) -> Path:
+    """Write ``path`` (.safetensors with a .json beside it, or a single .pt). Returns the weights path."""
+    from safetensors.torch import save_file
+
+    path = Path(path)
+    record = {"format": FORMAT, "config": net.config.to_dict(), "bodies": bodies_meta(*bodies), **(meta or {})}
+    weights = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix == ".pt":
+        _atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
+        return path
+    path = path.with_suffix(".safetensors")
+    _atomic_write(path, lambda p: save_file(weights, str(p)))
+    _atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(record, indent=1)))
+    return path
+
+
+def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
+    """(meta record, state dict) of a saved model; BadInput for anything that is not one."""
+    from safetensors import SafetensorsError
+    from safetensors.torch import load_file
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "model.safetensors"
+    if path.suffix == ".json":
+        path = path.with_suffix(".safetensors")
+    if not path.is_file():
+        raise BadInput(f"model file {str(path)!r} does not exist")
+    if path.suffix == ".pt":
+        try:
+            blob = torch.load(path, map_location="cpu", weights_only=True)
+        except Exception as exc:  # the weights-only unpickler refuses anything but tensors and plain data
+            raise BadInput(f"model file {str(path)!r} is not a PressureNet checkpoint that can be read "
+                           f"safely ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
+        if not isinstance(blob, dict) or not isinstance(blob.get("meta"), str) or not isinstance(blob.get("state_dict"), dict):
+            raise BadInput(f"model file {str(path)!r} does not hold {{'meta': json, 'state_dict': tensors}}")
+        meta_text, weights = blob["meta"], blob["state_dict"]
+    elif path.suffix == ".safetensors":
+        meta_path = path.with_suffix(".json")
+        if not meta_path.is_file():
+            raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it")
+        try:
+            weights = load_file(str(path))
+        except (SafetensorsError, OSError, ValueError) as exc:
+            raise BadInput(f"model file {str(path)!r} is not a valid safetensors file ({exc})") from None
+        meta_text = meta_path.read_text()
+    else:
+        raise BadInput(f"model file {str(path)!r}: expected a .safetensors (with .json) or .pt file")
+    try:
+        meta = json.loads(meta_text)
+    except json.JSONDecodeError as exc:
+        raise BadInput(f"model file {str(path)!r}: its metadata is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise BadInput(f"model file {str(path)!r} is not a {FORMAT} model")
+    if not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in weights.items()):
+        raise BadInput(f"model file {str(path)!r}: its weights are not a name -> tensor mapping")
+    return meta, weights
+
+
+def load_model(path: str | Path, bodies: tuple[BodyModel, BodyModel] | None = None,
+               device: str | torch.device | None = None) -> tuple[PressureNet, dict]:
+    """Load a saved PressureNet (eval mode) and its metadata.
+
+    bodies: (female, male) BodyModels to use; default: rebuilt from the stored specs. Either way
+    their identities must equal the stored ones (BadInput otherwise, naming both).
+    """
+    meta, weights = read_model_files(path)
+    try:
+        config = NetConfig.from_dict(meta["config"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise BadInput(f"model file {str(path)!r}: its config is not a PressureNet config ({exc})") from None
+    stored = meta.get("bodies", {})
+    if bodies is None:
+        try:
+            f = body_model(stored["female"]["spec"])
+            m = f if stored["male"]["spec"] == stored["female"]["spec"] else body_model(stored["male"]["spec"])
+        except (KeyError, TypeError) as exc:
+            raise BadInput(f"model file {str(path)!r} names no body models ({exc})") from None
+        bodies = (f, m)
+    for g, b in zip(("female", "male"), bodies):
+        want = stored.get(g, {}).get("identity")
+        if b.identity != want:
+            raise BadInput(f"the {g} body model {b.identity} is not the one this model was trained with "
+                           f"({want}); pass the same body model files")
+    net = PressureNet(config, gendered_body(*bodies))
+    try:
+        net.load_state_dict(weights, strict=True)
+    except RuntimeError as exc:
+        raise BadInput(f"model file {str(path)!r}: weights do not fit its config ({str(exc)[:300]})") from None
+    net.eval()
+    return (net.to(device) if device is not None else net), meta

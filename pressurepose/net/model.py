@@ -1,0 +1,175 @@
+"""PressureNet (paper section 4): two modules in series, each CNN -> output limits -> body layer -> PMR.
+
+Mod1 sees the pressure channels (P, E, C_I); Mod2 sees the same plus the two maps PMR reconstructed
+from Mod1's body (Q_1, C_O,1) and predicts residuals on Mod1's unconstrained parameters. Gender
+(0 female, 1 male) selects which body model each batch element is posed with.
+
+Ablations (paper Table 2): ``use_pmr=False`` drops the PMR channels from Mod2 (and the map terms
+from its loss); ``InputConfig.edges_contact=False`` drops E and C_I; the noise is a training option
+(:mod:`pressurepose.net.train`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import asdict, dataclass, field
+
+import torch
+from torch import nn
+
+from pressurepose.net.cnn import PressureCNN
+from pressurepose.net.outputs import BodyParams, OutputConfig, OutputLayer
+from pressurepose.net.pmr import MatGrid, PMRConfig, PMRMaps, pmr
+from pressurepose.net.transforms import InputConfig, input_channels, map_channels
+
+GENDER_CODES = {"f": 0, "female": 0, "m": 1, "male": 1}
+
+
+@dataclass(frozen=True)
+class NetConfig:
+    """Everything that fixes a PressureNet's architecture and meaning; stored with checkpoints.
+
+    grid: the mat (rows, cols, pitches). inputs, outputs, pmr: see their modules.
+    use_pmr: Mod2 gets Mod1's PMR maps (False: the paper's "PMR ablated" network).
+    gender_input: append the gender flag to the CNN features (not in the paper; default off).
+    dropout: CNN dropout probability (paper 0.1).
+    """
+
+    grid: MatGrid
+    outputs: OutputConfig
+    inputs: InputConfig = field(default_factory=InputConfig)
+    pmr: PMRConfig = field(default_factory=PMRConfig)
+    use_pmr: bool = True
+    gender_input: bool = False
+    dropout: float = 0.1
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> "NetConfig":
+        """Inverse of :meth:`to_dict`; raises TypeError/ValueError on unknown or missing fields."""
+        d = dict(d)
+        out = d.pop("outputs")
+        out = OutputConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
+        return NetConfig(grid=MatGrid(**d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
+                         pmr=PMRConfig(**d.pop("pmr")), **d)
+
+
+@dataclass
+class ModuleOutput:
+    """One module's estimate: params, vertices (B, V, 3) and joints (B, 24, 3) in the bed frame
+    (metres), and its PMR maps (None where they were not asked for)."""
+
+    params: BodyParams
+    vertices: torch.Tensor
+    joints: torch.Tensor
+    maps: PMRMaps | None
+
+
+class GenderedBody(nn.Module):
+    """Poses each batch element with the body layer of its gender (0 female, 1 male).
+
+    Both layers must share a mesh topology (same vertex count). Pass the same layer twice for a
+    single (e.g. neutral or toy) body.
+    """
+
+    def __init__(self, female: nn.Module, male: nn.Module):
+        super().__init__()
+        if female.v_template.shape != male.v_template.shape:
+            raise ValueError(f"female and male bodies differ in vertex count ({female.v_template.shape[0]} "
+                             f"vs {male.v_template.shape[0]}); PressureNet needs one topology")
+        self.layers = nn.ModuleList([female] if female is male else [female, male])
+
+    @property
+    def faces(self) -> torch.Tensor:
+        return self.layers[0].faces
+
+    def forward(self, params: BodyParams, gender: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Vertices (B, V, 3) and joints (B, 24, 3) in float32 (outside any autocast)."""
+        dev = params.betas.device
+        with torch.autocast(dev.type, enabled=False) if dev.type in ("cuda", "cpu") else contextlib.nullcontext():
+            args = dict(betas=params.betas.float(), body_pose=params.body_pose.float(),
+                        global_orient=params.global_orient.float(), transl=params.transl.float())
+            if len(self.layers) == 1:
+                out = self.layers[0](**args)
+                return out.vertices, out.joints
+            if bool(((gender < 0) | (gender > 1)).any()):
+                raise ValueError("gender must hold 0 (female) or 1 (male) for every batch element")
+            verts = joints = None
+            for g, layer in enumerate(self.layers):
+                idx = (gender == g).nonzero().squeeze(1)
+                if idx.numel() == 0:
+                    continue
+                out = layer(**{k: v.index_select(0, idx) for k, v in args.items()})
+                if verts is None:
+                    b = gender.shape[0]
+                    verts = out.vertices.new_zeros((b,) + out.vertices.shape[1:])
+                    joints = out.joints.new_zeros((b,) + out.joints.shape[1:])
+                verts = verts.index_copy(0, idx, out.vertices)
+                joints = joints.index_copy(0, idx, out.joints)
+            return verts, joints
+
+
+class PressureNetModule(nn.Module):
+    """CNN + output layer of one module (the body layer and PMR are shared by the two modules)."""
+
+    def __init__(self, config: NetConfig, in_channels: int, zero_init: bool = False):
+        super().__init__()
+        h, w = config.inputs.input_size(config.grid.rows, config.grid.cols)
+        self.cnn = PressureCNN(in_channels, h, w, dropout=config.dropout, gender_input=config.gender_input)
+        self.outputs = OutputLayer(config.outputs)
+        if zero_init:  # a residual module starts as the identity on its base estimate
+            nn.init.zeros_(self.cnn.fc.weight)
+            nn.init.zeros_(self.cnn.fc.bias)
+
+    def forward(self, x: torch.Tensor, gender: torch.Tensor, base: BodyParams | None = None) -> BodyParams:
+        return self.outputs(self.cnn(x, gender), base)
+
+
+class PressureNet(nn.Module):
+    """Mod1 + Mod2 with the gendered body layer and PMR.
+
+    >>> net = PressureNet(config, GenderedBody(female_layer, male_layer))
+    >>> out1, out2 = net(pressure, gender)   # pressure (B, R, C) mmHg, gender (B,) long
+    """
+
+    def __init__(self, config: NetConfig, body: GenderedBody):
+        super().__init__()
+        self.config = config
+        self.body = body
+        self.mod1 = PressureNetModule(config, config.inputs.num_channels())
+        self.mod2 = PressureNetModule(config, config.inputs.num_channels(2 if config.use_pmr else 0),
+                                      zero_init=True)
+
+    def pose_body(self, params: BodyParams, gender: torch.Tensor, maps: bool) -> ModuleOutput:
+        verts, joints = self.body(params, gender)
+        return ModuleOutput(params, verts, joints, pmr(verts, self.config.grid, self.config.pmr) if maps else None)
+
+    def run_mod1(self, x1: torch.Tensor, gender: torch.Tensor, maps: bool = True) -> ModuleOutput:
+        """Mod1 on its input channels x1 (B, K1, H, W)."""
+        return self.pose_body(self.mod1(x1, gender), gender, maps)
+
+    def mod2_input(self, x1: torch.Tensor, out1: ModuleOutput) -> torch.Tensor:
+        """Mod2's input: x1 plus (with PMR) the channels of Mod1's maps Q_1 and C_O,1 (no gradient)."""
+        if not self.config.use_pmr:
+            return x1
+        m = out1.maps if out1.maps is not None else pmr(out1.vertices, self.config.grid, self.config.pmr)
+        extra = torch.stack([m.q, m.contact], 1).detach()
+        return torch.cat([x1, map_channels(extra, self.config.inputs).to(x1.dtype)], 1)
+
+    def run_mod2(self, x1: torch.Tensor, gender: torch.Tensor, out1: ModuleOutput, maps: bool = True) -> ModuleOutput:
+        """Mod2 refining ``out1`` (its parameters are the base of Mod2's residuals, no gradient)."""
+        base = BodyParams(**{k: v.detach() for k, v in vars(out1.params).items()})
+        return self.pose_body(self.mod2(self.mod2_input(x1, out1), gender, base), gender, maps)
+
+    def inputs(self, pressure: torch.Tensor, contact: torch.Tensor | None = None,
+               blur_sigma: torch.Tensor | None = None) -> torch.Tensor:
+        """Mod1's input channels from pressure images (B, R, C) (see ``transforms.input_channels``)."""
+        return input_channels(pressure, self.config.inputs, contact=contact, blur_sigma=blur_sigma)
+
+    def forward(self, pressure: torch.Tensor, gender: torch.Tensor) -> tuple[ModuleOutput, ModuleOutput]:
+        """Both modules' estimates for clean pressure images (B, R, C) and genders (B,)."""
+        x1 = self.inputs(pressure)
+        out1 = self.run_mod1(x1, gender, maps=self.config.use_pmr)
+        return out1, self.run_mod2(x1, gender, out1)

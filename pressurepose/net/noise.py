@@ -1,0 +1,48 @@
+"""The training noise model (REFERENCE section 6; paper section 5.2): synthetic images made to
+look like a real sensor's.
+
+Per image: multiply by N(1, 0.2); add per-taxel N(0, 14) mmHg to the non-zero taxels; clip to
+[0, clip_max]; keep the clean image's contact mask (zero taxels stay zero, and the contact channel
+is the clean mask); blur with a per-image sigma ~ N(0.5, 0.2) taxels (clamped at 0), which replaces
+the fixed blur of clean images.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from pressurepose.net.transforms import contact_map
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Parameters of :func:`add_noise` (units: mmHg for pressures, taxels for blur)."""
+
+    mult_std: float = 0.2
+    add_std: float = 14.0
+    clip_max: float = 100.0
+    blur_mean: float = 0.5
+    blur_std: float = 0.2
+
+
+def _randn(shape, generator: torch.Generator, like: torch.Tensor) -> torch.Tensor:
+    z = torch.randn(shape, generator=generator, device=generator.device, dtype=torch.float32)
+    return z.to(device=like.device, dtype=like.dtype)
+
+
+def add_noise(pressure: torch.Tensor, generator: torch.Generator, config: NoiseConfig = NoiseConfig(),
+              ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Noisy copies of pressure images (B, R, C).
+
+    Returns (noisy (B, R, C), contact mask of the clean images (B, R, C), blur sigmas (B,)) to be
+    passed on to :func:`pressurepose.net.transforms.input_channels`. Draws only from ``generator``.
+    """
+    b = pressure.shape[0]
+    mask = contact_map(pressure)
+    scale = 1.0 + config.mult_std * _randn((b, 1, 1), generator, pressure)
+    additive = config.add_std * _randn(pressure.shape, generator, pressure)
+    noisy = ((pressure * scale + additive * mask).clamp(0.0, config.clip_max)) * mask
+    sigma = (config.blur_mean + config.blur_std * _randn((b,), generator, pressure)).clamp_min(0.0)
+    return noisy, mask, sigma

@@ -1,0 +1,412 @@
+"""Training PressureNet: Mod1 with L1, then Mod2 (Mod1 frozen) with L2 (paper sections 4-5, B.3).
+
+Data is an in-memory mapping of tensors (or numpy arrays), N samples on one mat:
+
+=========== ============ ==============================================
+key         shape        meaning
+=========== ============ ==============================================
+pressure    (N, R, C)    pressure images, mmHg
+gender      (N,)         0 / 1, or 'f' / 'm'
+betas       (N, 10)      body shape
+pose        (N, 72)      SMPL axis-angle, root first
+transl      (N, 3)       the body model's translation, m (bed frame)
+joints      (N, 24, 3)   joint positions, m (bed frame)
+=========== ============ ==============================================
+
+(:func:`pressurepose.net.data.load_training_data` makes one from a generated dataset.) The ground
+truth PMR maps are PMR of the true bodies ("setting Psi^ = Psi", paper eq. 3), computed once.
+
+Runs are seeded (the shuffling, the noise and dropout of epoch e depend only on (seed, stage, e)),
+use a CUDA GPU with mixed precision when there is one, and write into ``out_dir``: ``log.csv``
+(always), TensorBoard events in ``tb/`` (when the ``tensorboard`` package is importable), the
+resumable state ``state.safetensors`` + ``state.json`` after every epoch, and the final
+``model.safetensors`` + ``model.json``. Running again with the same config and data resumes from
+the last finished epoch.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import torch
+
+from pressurepose.body.model import BodyModel
+from pressurepose.errors import BadInput
+from pressurepose.net.checkpoint import _atomic_write, bodies_meta, gendered_body, save_model
+from pressurepose.net.losses import LossScales, dataset_scales, joint_error, loss_l1, loss_l2
+from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
+from pressurepose.net.noise import NoiseConfig, add_noise
+from pressurepose.net.outputs import BodyParams, OutputConfig
+from pressurepose.net.pmr import MatGrid, PMRConfig, pmr
+from pressurepose.net.transforms import InputConfig
+
+DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Training options; the defaults are the paper's (appendix B.3, section 5.2).
+
+    loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
+    training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
+    out for the per-epoch validation (seeded split). gain: output gain (:mod:`.outputs`).
+    """
+
+    epochs_mod1: int = 100
+    epochs_mod2: int = 100
+    batch_size: int = 128
+    lr: float = 2e-5
+    weight_decay: float = 5e-4
+    noise: bool = True
+    noise_config: NoiseConfig = field(default_factory=NoiseConfig)
+    use_pmr: bool = True
+    edges_contact: bool = True
+    upsample: int = 2
+    blur_sigma: float = 0.5
+    gender_input: bool = False
+    gain: float = 0.1
+    loss_sigmas: str = "paper"
+    val_fraction: float = 0.0
+    seed: int = 0
+    device: str = "auto"
+    amp: bool = True
+
+    def __post_init__(self):
+        for name in ("epochs_mod1", "epochs_mod2"):
+            if getattr(self, name) < 0:
+                raise BadInput(f"{name} = {getattr(self, name)}; expected >= 0")
+        if self.batch_size < 1 or self.upsample < 1:
+            raise BadInput("batch_size and upsample must be >= 1")
+        if not self.lr > 0 or self.weight_decay < 0:
+            raise BadInput(f"lr = {self.lr} must be > 0 and weight_decay = {self.weight_decay} >= 0")
+        if self.loss_sigmas not in ("paper", "data"):
+            raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
+        if not 0 <= self.val_fraction < 1:
+            raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class TrainResult:
+    """Where the trained model is and the per-epoch log rows."""
+
+    model_path: Path
+    history: list[dict]
+
+
+# ---------------------------------------------------------------------------------------- data
+def as_training_data(data: Mapping, grid: MatGrid) -> dict[str, torch.Tensor]:
+    """Validate and convert a data mapping (see the module docstring) to float32/long tensors."""
+    missing = [k for k in DATA_KEYS if k not in data]
+    if missing:
+        raise BadInput(f"training data lacks {', '.join(missing)}; expected keys {', '.join(DATA_KEYS)}")
+    g = data["gender"]
+    if not isinstance(g, torch.Tensor) and np.asarray(g).dtype.kind in "USO":
+        try:
+            g = [GENDER_CODES[str(x).lower()] for x in np.asarray(g).reshape(-1)]
+        except KeyError as exc:
+            raise BadInput(f"training data gender {exc.args[0]!r}: expected 'f' or 'm'") from None
+    out = {"gender": torch.as_tensor(np.asarray(g) if not isinstance(g, torch.Tensor) else g).long().reshape(-1)}
+    n = out["gender"].shape[0]
+    for k, shp in DATA_KEYS.items():
+        if k == "gender":
+            continue
+        t = torch.as_tensor(np.asarray(data[k]) if not isinstance(data[k], torch.Tensor) else data[k]).float()
+        want = (n, *grid.shape) if k == "pressure" else (n, *shp)
+        if tuple(t.shape) != want:
+            raise BadInput(f"training data {k} has shape {tuple(t.shape)}; expected {want}")
+        if not bool(torch.isfinite(t).all()):
+            raise BadInput(f"training data {k} contains NaN or infinite values")
+        out[k] = t
+    if bool((out["pressure"] < 0).any()):
+        raise BadInput("training data pressure has negative values; expected pressures >= 0")
+    if bool(((out["gender"] < 0) | (out["gender"] > 1)).any()):
+        raise BadInput("training data gender must be 0 (female) or 1 (male)")
+    if n < 1:
+        raise BadInput("training data is empty")
+    return out
+
+
+def _fingerprint(data: dict[str, torch.Tensor]) -> str:
+    h = hashlib.sha256()
+    n = data["pressure"].shape[0]
+    idx = torch.arange(0, n, max(1, n // 64))
+    for k in sorted(data):
+        h.update(k.encode())
+        h.update(data[k][idx].numpy().tobytes())
+        h.update(str(float(data[k].double().sum())).encode())
+    return f"{n}:{h.hexdigest()[:16]}"
+
+
+def _truth_params(data: dict[str, torch.Tensor], idx: torch.Tensor, device) -> BodyParams:
+    pose = data["pose"][idx].to(device)
+    return BodyParams(unconstrained=pose.new_zeros(pose.shape[0], 88), betas=data["betas"][idx].to(device),
+                      transl=data["transl"][idx].to(device), root_euler=pose.new_zeros(pose.shape[0], 3),
+                      global_orient=pose[:, :3], body_pose=pose[:, 3:])
+
+
+@torch.no_grad()
+def truth_maps(net: PressureNet, data: dict[str, torch.Tensor], device, chunk: int = 256,
+               ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Ground-truth PMR maps Q (N, R, C) and contact (N, R, C) of the true bodies (on the CPU)."""
+    qs, cs = [], []
+    for s in range(0, data["pressure"].shape[0], chunk):
+        idx = torch.arange(s, min(s + chunk, data["pressure"].shape[0]))
+        verts, _ = net.body(_truth_params(data, idx, device), data["gender"][idx].to(device))
+        m = pmr(verts, net.config.grid, net.config.pmr)
+        qs.append(m.q.cpu())
+        cs.append(m.contact.cpu())
+    return torch.cat(qs), torch.cat(cs)
+
+
+# ---------------------------------------------------------------------------------------- helpers
+def _device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        dev = torch.device(name)
+    except RuntimeError:
+        raise BadInput(f"device {name!r} is not a torch device (e.g. cpu, cuda, cuda:1)") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise BadInput(f"device {name!r} asked for, but CUDA is not available")
+    return dev
+
+
+def _epoch_seed(seed: int, stage: int, epoch: int) -> int:
+    return (seed * 1_000_003 + stage * 10_007 + epoch) % (2 ** 62)
+
+
+def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> NetConfig:
+    """The network config a training run builds: output home translation = the data's mean, its
+    scale = the data's range (at least 5 cm per axis)."""
+    t = transl.double()
+    rng = (t.max(0).values - t.min(0).values).clamp_min(0.05)
+    outputs = OutputConfig.default(t.mean(0).tolist(), rng.tolist(), gain=config.gain)
+    return NetConfig(grid=grid, outputs=outputs,
+                     inputs=InputConfig(upsample=config.upsample, blur_sigma=config.blur_sigma,
+                                        edges_contact=config.edges_contact),
+                     pmr=PMRConfig(), use_pmr=config.use_pmr, gender_input=config.gender_input)
+
+
+class _Logger:
+    FIELDS = ["stage", "epoch", "train_loss", "train_joints_cm", "val_loss", "val_mpjpe_cm", "seconds",
+              "images_per_s"]
+
+    def __init__(self, out_dir: Path):
+        self.path = out_dir / "log.csv"
+        self.tb = None
+        try:
+            from torch.utils.tensorboard import SummaryWriter
+
+            self.tb = SummaryWriter(str(out_dir / "tb"))
+        except ImportError:  # tensorboard is optional
+            pass
+
+    def write(self, row: dict) -> None:
+        new = not self.path.exists()
+        with open(self.path, "a", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=self.FIELDS)
+            if new:
+                w.writeheader()
+            w.writerow({k: row.get(k, "") for k in self.FIELDS})
+        if self.tb is not None:
+            step = row["epoch"] + (0 if row["stage"] == 1 else 10 ** 6)
+            for k in self.FIELDS[2:]:
+                if isinstance(row.get(k), float) and math.isfinite(row[k]):
+                    self.tb.add_scalar(f"mod{row['stage']}/{k}", row[k], step)
+            self.tb.flush()
+
+    def close(self) -> None:
+        if self.tb is not None:
+            self.tb.close()
+
+
+def _save_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, record: dict) -> None:
+    from safetensors.torch import save_file
+
+    tensors = {f"net.{k}": v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
+    st = opt.state_dict()
+    for i, s in st["state"].items():
+        for k, v in s.items():
+            tensors[f"opt.{i}.{k}"] = torch.as_tensor(v).detach().cpu().contiguous()
+    record = {**record, "param_groups": st["param_groups"]}
+    _atomic_write(out_dir / "state.safetensors", lambda p: save_file(tensors, str(p)))
+    _atomic_write(out_dir / "state.json", lambda p: p.write_text(json.dumps(record, indent=1)))
+
+
+def _load_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, record: dict) -> None:
+    from safetensors.torch import load_file
+
+    tensors = load_file(str(out_dir / "state.safetensors"))
+    net.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("net.")})
+    state: dict = {}
+    for k, v in tensors.items():
+        if k.startswith("opt."):
+            _, i, name = k.split(".", 2)
+            state.setdefault(int(i), {})[name] = v
+    opt.load_state_dict({"state": state, "param_groups": record["param_groups"]})
+
+
+# ---------------------------------------------------------------------------------------- training
+def _optimizer(module: torch.nn.Module, config: TrainConfig) -> torch.optim.Optimizer:
+    return torch.optim.Adam(module.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+
+
+def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: TrainConfig, maps: bool):
+    if noise_gen is not None:
+        noisy, mask, sigma = add_noise(pressure, noise_gen, config.noise_config)
+        x1 = net.inputs(noisy, contact=mask, blur_sigma=sigma)
+    else:
+        x1 = net.inputs(pressure)
+    if stage == 1:
+        return net.run_mod1(x1, gender, maps=maps)
+    with torch.no_grad():
+        out1 = net.run_mod1(x1, gender, maps=config.use_pmr)
+    return net.run_mod2(x1, gender, out1, maps=maps)
+
+
+def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
+          bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatGrid | None = None,
+          progress: bool = False) -> TrainResult:
+    """Train Mod1 then Mod2 on ``data``; write logs, resumable state and the model into ``out_dir``.
+
+    bodies: (female, male) BodyModels (default the shipped ones). grid: the mat (default the
+    BodiTrak BT-3510); the images in ``data`` must be on it.
+    """
+    if grid is None:
+        from pressurepose.sim.bed import get_mat
+
+        grid = MatGrid.from_mat(get_mat("boditrak_bt3510"))
+    if bodies is None:
+        bodies = (BodyModel("female"), BodyModel("male"))
+    data = as_training_data(data, grid)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    device = _device(config.device)
+    n = data["pressure"].shape[0]
+    perm = torch.randperm(n, generator=torch.Generator().manual_seed(config.seed))
+    n_val = int(round(config.val_fraction * n))
+    val_idx, train_idx = perm[:n_val].sort().values, perm[n_val:].sort().values
+
+    net_config = net_config_for(config, grid, data["transl"][train_idx])
+    net = PressureNet(net_config, gendered_body(*bodies)).to(device)
+    identity = {"train": config.to_dict(), "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
+                "data": _fingerprint(data)}
+    identity = json.loads(json.dumps(identity))  # tuples -> lists, as stored
+
+    state_path = out_dir / "state.json"
+    record = json.loads(state_path.read_text()) if state_path.exists() else None
+    if record is not None and record.get("identity") != identity:
+        raise BadInput(f"{out_dir} holds a training run with a different config, body model or data; "
+                       f"use another output folder (nothing was overwritten)")
+
+    q_true = c_true = None
+    if config.use_pmr:
+        q_true, c_true = truth_maps(net, data, device)
+    t_idx = train_idx
+    scales = dataset_scales(data["joints"][t_idx], data["betas"][t_idx],
+                            q_true[t_idx] if q_true is not None else None,
+                            c_true[t_idx] if c_true is not None else None,
+                            paper_joints_betas=config.loss_sigmas == "paper")
+
+    use_amp = config.amp and device.type == "cuda"
+    amp_dtype = torch.bfloat16 if use_amp and torch.cuda.is_bf16_supported() else torch.float16
+    logger = _Logger(out_dir)
+    history = list(record["history"]) if record else []
+    resume_stage, resume_epoch = (record["stage"], record["epoch"] + 1) if record else (1, 0)
+
+    try:
+        for stage in (1, 2):
+            if stage < resume_stage:
+                continue
+            epochs = config.epochs_mod1 if stage == 1 else config.epochs_mod2
+            module = net.mod1 if stage == 1 else net.mod2
+            for p in net.mod1.parameters():
+                p.requires_grad_(stage == 1)
+            opt = _optimizer(module, config)
+            first = 0
+            if record and stage == resume_stage:
+                _load_state(out_dir, net, opt, record)
+                first = resume_epoch
+            scaler = torch.amp.GradScaler("cuda", enabled=use_amp and amp_dtype == torch.float16)
+            l2 = stage == 2 and config.use_pmr
+            for epoch in range(first, epochs):
+                seed = _epoch_seed(config.seed, stage, epoch)
+                torch.manual_seed(seed)
+                gen = torch.Generator().manual_seed(seed)
+                noise_gen = torch.Generator().manual_seed(seed + 1) if config.noise else None
+                order = train_idx[torch.randperm(len(train_idx), generator=gen)]
+                net.train()
+                net.mod1.train(stage == 1)
+                t0, sums, count = time.perf_counter(), {"loss": 0.0, "joints": 0.0}, 0
+                batches = range(0, len(order), config.batch_size)
+                if progress:
+                    from tqdm import tqdm
+
+                    batches = tqdm(batches, desc=f"mod{stage} epoch {epoch + 1}/{epochs}", leave=False)
+                for s in batches:
+                    idx = order[s:s + config.batch_size]
+                    pressure = data["pressure"][idx].to(device, non_blocking=True)
+                    gender = data["gender"][idx].to(device)
+                    with torch.autocast(device.type, dtype=amp_dtype, enabled=use_amp):
+                        out = _forward(net, stage, pressure, gender, noise_gen, config, maps=l2)
+                        joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
+                        if l2:
+                            loss, parts = loss_l2(out, joints, betas, q_true[idx].to(device),
+                                                  c_true[idx].to(device), scales)
+                        else:
+                            loss, parts = loss_l1(out, joints, betas, scales)
+                    opt.zero_grad(set_to_none=True)
+                    scaler.scale(loss).backward()
+                    scaler.step(opt)
+                    scaler.update()
+                    sums["loss"] += float(loss.detach()) * len(idx)
+                    sums["joints"] += float(parts["joints"]) * scales.joints_m * len(idx)
+                    count += len(idx)
+                seconds = time.perf_counter() - t0
+                row = {"stage": stage, "epoch": epoch, "train_loss": sums["loss"] / max(count, 1),
+                       "train_joints_cm": 100 * sums["joints"] / max(count, 1), "seconds": seconds,
+                       "images_per_s": count / max(seconds, 1e-9)}
+                if n_val:
+                    row.update(_validate(net, stage, data, val_idx, q_true, c_true, scales, config, device))
+                logger.write(row)
+                history.append(row)
+                _save_state(out_dir, net, opt, {"identity": identity, "stage": stage, "epoch": epoch,
+                                                "history": history})
+    finally:
+        logger.close()
+    meta = {"loss_scales": dataclasses.asdict(scales), "train": config.to_dict(),
+            "data": identity["data"], "history": history}
+    model_path = save_model(out_dir / "model.safetensors", net, bodies, meta)
+    return TrainResult(model_path, history)
+
+
+@torch.no_grad()
+def _validate(net, stage, data, val_idx, q_true, c_true, scales, config, device) -> dict:
+    net.eval()
+    tot_loss = tot_err = 0.0
+    l2 = stage == 2 and config.use_pmr
+    for s in range(0, len(val_idx), config.batch_size):
+        idx = val_idx[s:s + config.batch_size]
+        out = _forward(net, stage, data["pressure"][idx].to(device), data["gender"][idx].to(device), None,
+                       config, maps=l2)
+        joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
+        if l2:
+            loss, _ = loss_l2(out, joints, betas, q_true[idx].to(device), c_true[idx].to(device), scales)
+        else:
+            loss, _ = loss_l1(out, joints, betas, scales)
+        tot_loss += float(loss) * len(idx)
+        tot_err += float(joint_error(out.joints, joints).sum())
+    return {"val_loss": tot_loss / len(val_idx), "val_mpjpe_cm": 100 * tot_err / len(val_idx)}
