@@ -289,3 +289,29 @@ def verify_shard(directory: Path, record: ShardRecord) -> str | None:
         return (f"{path} is corrupt or truncated: sha256 {digest[:16]}... does not match the "
                 f"manifest's {record.sha256[:16]}...")
     return None
+
+
+def write_dataset(out: Path, config: GenerationConfig, samples: Sequence[Sample]) -> Manifest:
+    """Write already-made samples (e.g. converted from another format) as a complete dataset in a new
+    or empty directory ``out``: shards of ``config.shard_size``, checksums, manifest. Sample ``i``
+    must have index ``i``; ``config.count`` must equal ``len(samples)``. Refuses a non-empty ``out``."""
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise BadInput(f"{out} is not empty; nothing was written (choose a new directory)")
+    if len(samples) != config.count:
+        raise BadInput(f"{len(samples)} samples for a config of count {config.count}")
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = Manifest.new(config)
+    for k in range(config.num_shards):
+        part = [samples[i] for i in config.shard_range(k)]
+        for i, s in zip(config.shard_range(k), part):
+            if s.index != i:
+                raise BadInput(f"sample at position {i} has index {s.index}; expected {i}")
+        data = encode_shard(config, k, part, [0] * len(part), {})
+        tmp = stage_bytes(out / shard_name(k), data)
+        manifest.shards[k] = ShardRecord(shard_name(k), sha256_bytes(data), len(part), len(part), {})
+        manifest.save(out)
+        commit(tmp, out / shard_name(k))
+    manifest.complete = True
+    manifest.save(out)
+    return manifest

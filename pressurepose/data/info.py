@@ -1,0 +1,158 @@
+"""Summaries of a dataset: counts by partition and gender, rejection rates, pressure statistics, and a
+picture (sample images and histograms)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pressurepose.data.dataset import DatasetReader
+from pressurepose.data.store import read_shard_arrays
+from pressurepose.sim.bed import get_mat
+
+GRAVITY = 9.81
+
+
+@dataclass
+class Summary:
+    root: Path
+    mat: str
+    shape: tuple[int, int]
+    samples: int
+    datasets: int
+    counts: dict[tuple[str, str, bool], int] = field(default_factory=dict)  # (partition, gender, plo)
+    attempts: int = 0
+    rejections: dict[str, int] = field(default_factory=dict)
+    incomplete: list[str] = field(default_factory=list)
+    pressure_mean: float = 0.0        # mmHg over all taxels
+    pressure_mean_loaded: float = 0.0  # mmHg over taxels with pressure > 0
+    pressure_max: float = 0.0
+    pressure_p99: float = 0.0         # of loaded taxels (from the histogram)
+    contact_fraction: float = 0.0
+    load_ratio_mean: float = 0.0      # mat force / body weight
+    pressure_hist: tuple[np.ndarray, np.ndarray] | None = None  # (counts, edges) of loaded taxels
+    load_ratio: np.ndarray | None = None
+    examples: list[tuple[str, np.ndarray]] = field(default_factory=list)
+
+    @property
+    def rejection_rate(self) -> float:
+        return sum(self.rejections.values()) / self.attempts if self.attempts else 0.0
+
+
+def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Summary:
+    """Read every shard once (streaming) and gather the statistics of :class:`Summary`."""
+    reader = DatasetReader(root, verify=verify, allow_incomplete=True)
+    first = reader.datasets[0].config
+    mat = get_mat(first.mat)
+    s = Summary(Path(root), mat.name, mat.shape, len(reader), len(reader.datasets))
+    for part in reader.datasets:
+        c, m = part.config, part.manifest
+        key = (c.partition, c.gender, bool(c.limbs_on_bed))
+        s.counts[key] = s.counts.get(key, 0) + m.samples_done
+        s.attempts += m.attempts
+        for cause, n in m.rejections.items():
+            s.rejections[cause] = s.rejections.get(cause, 0) + n
+        if not m.complete:
+            s.incomplete.append(f"{part.path} ({len(m.shards)} of {c.num_shards} shards)")
+    edges = np.linspace(0.0, mat.max_mmhg * 1.5, 151)
+    hist = np.zeros(len(edges) - 1)
+    total = loaded = contact = 0.0
+    n_taxels = n_loaded = 0
+    pmax = 0.0
+    ratios = []
+    step = max(1, len(reader.shards) // max(1, examples))
+    for k, ref in enumerate(reader.shards):
+        a = read_shard_arrays(ref.path, ["pressure", "force", "contact", "mass", "gender", "partition", "index"])
+        p = a["pressure"].astype(np.float64)
+        total += p.sum()
+        n_taxels += p.size
+        nz = p[p > 0]
+        loaded += nz.sum()
+        n_loaded += nz.size
+        pmax = max(pmax, float(p.max()))
+        contact += a["contact"].sum()
+        hist += np.histogram(np.clip(nz, 0, edges[-1]), edges)[0]
+        ratios.append(a["force"].sum((1, 2)) / (a["mass"] * GRAVITY))
+        if k % step == 0 and len(s.examples) < examples:
+            s.examples.append((f"{a['partition'][0]}\n{a['gender'][0]} #{a['index'][0]}", a["pressure"][0]))
+    if n_taxels:
+        s.pressure_mean = total / n_taxels
+        s.pressure_mean_loaded = loaded / max(n_loaded, 1)
+        s.pressure_max = pmax
+        s.contact_fraction = contact / n_taxels
+        cdf = np.cumsum(hist) / max(hist.sum(), 1)
+        s.pressure_p99 = float(edges[1:][np.searchsorted(cdf, 0.99)]) if hist.sum() else 0.0
+        s.pressure_hist = (hist, edges)
+        s.load_ratio = np.concatenate(ratios)
+        s.load_ratio_mean = float(s.load_ratio.mean())
+    return s
+
+
+def format_summary(s: Summary) -> str:
+    rows, cols = s.shape
+    lines = [f"{s.root}: {s.datasets} dataset(s), {s.samples} samples, mat {s.mat} ({rows} x {cols})", ""]
+    lines.append(f"{'partition':24s} {'limbs on bed':>12s} {'f':>8s} {'m':>8s} {'total':>8s}")
+    keys = sorted({(p, plo) for p, _, plo in s.counts})
+    for p, plo in keys:
+        f, m = s.counts.get((p, "f", plo), 0), s.counts.get((p, "m", plo), 0)
+        lines.append(f"{p:24s} {'yes' if plo else 'no':>12s} {f:8d} {m:8d} {f + m:8d}")
+    tf = sum(n for (_, g, _), n in s.counts.items() if g == "f")
+    tm = sum(n for (_, g, _), n in s.counts.items() if g == "m")
+    lines.append(f"{'total':24s} {'':>12s} {tf:8d} {tm:8d} {tf + tm:8d}")
+    lines.append("")
+    rej = ", ".join(f"{c} {n} ({100.0 * n / s.attempts:.1f}%)" for c, n in
+                    sorted(s.rejections.items(), key=lambda kv: -kv[1])) if s.attempts else "none"
+    lines.append(f"attempts {s.attempts}, rejected {100.0 * s.rejection_rate:.1f}%: {rej}")
+    lines.append(f"pressure (mmHg): mean {s.pressure_mean:.2f} over all taxels, {s.pressure_mean_loaded:.2f} "
+                 f"over loaded taxels, 99th percentile {s.pressure_p99:.1f}, max {s.pressure_max:.1f}")
+    lines.append(f"contact: {100.0 * s.contact_fraction:.1f}% of taxels; force on the mat / body weight: "
+                 f"mean {s.load_ratio_mean:.3f}")
+    for inc in s.incomplete:
+        lines.append(f"incomplete: {inc}")
+    return "\n".join(lines)
+
+
+def draw_summary(s: Summary, path: str | Path) -> Path:
+    """Write a PNG: sample pressure images on top, histograms and counts below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n_ex = max(1, len(s.examples))
+    fig = plt.figure(figsize=(max(10.0, 1.7 * n_ex), 8.0), layout="constrained")
+    grid = fig.add_gridspec(2, max(n_ex, 3), height_ratios=[1.6, 1.0])
+    vmax = max((float(img.max()) for _, img in s.examples), default=1.0) or 1.0
+    for i, (title, img) in enumerate(s.examples):
+        ax = fig.add_subplot(grid[0, i])
+        im = ax.imshow(img, cmap="viridis", vmin=0, vmax=vmax, interpolation="nearest")
+        ax.set_title(title, fontsize=7)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    if s.examples:
+        fig.colorbar(im, ax=fig.axes[:len(s.examples)], shrink=0.8, label="mmHg")
+    third = max(n_ex, 3) // 3
+    ax = fig.add_subplot(grid[1, :third])
+    if s.pressure_hist is not None:
+        hist, edges = s.pressure_hist
+        ax.bar(edges[:-1], hist, width=np.diff(edges), align="edge")
+        ax.set_yscale("log")
+    ax.set_xlabel("pressure of loaded taxels (mmHg)")
+    ax.set_ylabel("taxels")
+    ax = fig.add_subplot(grid[1, third:2 * third])
+    if s.load_ratio is not None:
+        ax.hist(s.load_ratio, bins=40)
+    ax.set_xlabel("force on mat / body weight")
+    ax.set_ylabel("samples")
+    ax = fig.add_subplot(grid[1, 2 * third:])
+    labels = sorted(s.counts)
+    ax.barh([f"{p[:14]} {g}{' plo' if plo else ''}" for p, g, plo in labels], [s.counts[k] for k in labels])
+    ax.tick_params(axis="y", labelsize=7)
+    ax.set_xlabel("samples")
+    fig.suptitle(f"{s.root.name}: {s.samples} samples, rejected {100.0 * s.rejection_rate:.1f}%")
+    path = Path(path)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,2 @@
+"""Readers and converters for other datasets: the official PressurePose release
+(``pressurepose_pickle``) and SLP pressure arrays (``slp``)."""

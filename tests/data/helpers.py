@@ -1,0 +1,40 @@
+"""Producers and configs for the data tests (importable by worker processes as tests.data.helpers)."""
+
+import os
+from pathlib import Path
+
+from pressurepose.data.schema import GenerationConfig
+from pressurepose.data.synthetic import synthetic_producer
+
+
+def small_config(**kw) -> GenerationConfig:
+    base = dict(partition="general", gender="f", count=20, shard_size=6, seed=7)
+    base.update(kw)
+    return GenerationConfig(**base)
+
+
+def flaky_producer(config, rng):
+    """Raises on the very first call across all processes (claimed by creating a marker file), then
+    behaves like the synthetic producer: exactly one work unit fails once."""
+    marker = Path(config.option("marker_dir")) / "failed_once"
+    try:
+        fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return synthetic_producer(config, rng)
+    os.close(fd)
+    raise RuntimeError("injected worker failure")
+
+
+def broken_producer(config, rng):
+    raise RuntimeError("this producer always fails")
+
+
+def crashing_producer(config, rng):
+    """Kills its worker process outright on the first call (marker file), like a segfault would."""
+    marker = Path(config.option("marker_dir")) / "crashed_once"
+    try:
+        fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return synthetic_producer(config, rng)
+    os.close(fd)
+    os._exit(1)

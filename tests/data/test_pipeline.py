@@ -1,0 +1,148 @@
+"""Determinism, independence of shards, worker counts, retries, and a real kill -9 in the middle of a run."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pressurepose.data.pipeline import GenerationError, generate, make_sample
+from pressurepose.data.producers import Rejected, attempt_rng
+from pressurepose.data.store import MANIFEST, Manifest, read_shard_arrays, shard_name
+from pressurepose.data.synthetic import synthetic_producer
+from tests.data.helpers import small_config
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _arrays(out, shards=None):
+    m = Manifest.load(out)
+    ks = sorted(m.shards) if shards is None else shards
+    return {k: read_shard_arrays(out / shard_name(k)) for k in ks}
+
+
+def _assert_same(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        assert a[k].keys() == b[k].keys()
+        for name in a[k]:
+            assert a[k][name].dtype == b[k][name].dtype
+            assert a[k][name].tobytes() == b[k][name].tobytes(), (k, name)
+
+
+def test_same_config_and_seed_give_identical_shards(tmp_path):
+    c = small_config(count=14, shard_size=5)
+    r1 = generate(c, tmp_path / "a", progress=False)
+    r2 = generate(c, tmp_path / "b", progress=False)
+    _assert_same(_arrays(tmp_path / "a"), _arrays(tmp_path / "b"))
+    assert {k: s.sha256 for k, s in r1.manifest.shards.items()} == {k: s.sha256 for k, s in r2.manifest.shards.items()}
+    assert r1.manifest.rejections == r2.manifest.rejections and sum(r1.manifest.rejections.values()) > 0
+    other = generate(small_config(count=14, shard_size=5, seed=8), tmp_path / "c", progress=False)
+    assert not np.array_equal(_arrays(tmp_path / "c")[0]["betas"], _arrays(tmp_path / "a")[0]["betas"])
+    assert other.manifest.samples_done == 14
+
+
+def test_one_shard_made_alone_equals_the_same_shard_of_a_full_run(tmp_path):
+    c = small_config(count=18, shard_size=6)
+    generate(c, tmp_path / "full", progress=False)
+    generate(c, tmp_path / "alone", progress=False, only_shards=[2])
+    assert sorted(Manifest.load(tmp_path / "alone").shards) == [2]
+    _assert_same(_arrays(tmp_path / "full", [2]), _arrays(tmp_path / "alone", [2]))
+    assert (tmp_path / "full" / shard_name(2)).read_bytes() == (tmp_path / "alone" / shard_name(2)).read_bytes()
+
+
+def test_a_sample_does_not_depend_on_count_or_shard_size():
+    a = make_sample(small_config(count=20, shard_size=6), 13)[0]
+    b = make_sample(small_config(count=50, shard_size=17), 13)[0]
+    assert np.array_equal(a.pressure, b.pressure) and np.array_equal(a.pose, b.pose)
+    # other partitions with the same seed draw other bodies
+    c = make_sample(small_config(partition="general_supine"), 13)[0]
+    assert not np.array_equal(a.betas, c.betas)
+
+
+def test_rejections_are_deterministic_and_counted_by_cause():
+    c = small_config(options={"reject_rate": 0.5})
+    s, attempt, rej = make_sample(c, 3)
+    for a in range(attempt):  # every earlier attempt really was rejected, for the recorded causes
+        assert isinstance(synthetic_producer(c, attempt_rng(c, 3, a)), Rejected)
+    assert sum(rej.values()) == attempt
+    assert make_sample(c, 3)[1:] == (attempt, rej)
+
+
+def test_two_workers_equal_one_worker(tmp_path):
+    c = small_config(count=20, shard_size=5)
+    generate(c, tmp_path / "one", workers=1, progress=False)
+    generate(c, tmp_path / "two", workers=2, progress=False)
+    _assert_same(_arrays(tmp_path / "one"), _arrays(tmp_path / "two"))
+
+
+def test_failed_unit_is_retried_not_dropped(tmp_path):
+    ref = small_config(count=12, shard_size=6)
+    generate(ref, tmp_path / "ref", progress=False)
+    flaky = small_config(count=12, shard_size=6, producer="tests.data.helpers:flaky_producer",
+                         options={"marker_dir": str(tmp_path)})
+    report = generate(flaky, tmp_path / "flaky", workers=2, progress=False)
+    assert (tmp_path / "failed_once").exists() and report.retries == 1
+    assert report.manifest.complete and report.manifest.samples_done == 12
+    for k in range(2):  # same samples as the plain synthetic producer
+        a = read_shard_arrays(tmp_path / "ref" / shard_name(k))
+        b = read_shard_arrays(tmp_path / "flaky" / shard_name(k))
+        assert all(np.array_equal(a[f], b[f]) for f in ("pressure", "pose", "joints", "index"))
+
+
+def test_crashed_worker_process_is_retried(tmp_path):
+    c = small_config(count=12, shard_size=6, producer="tests.data.helpers:crashing_producer",
+                     options={"marker_dir": str(tmp_path)})
+    report = generate(c, tmp_path / "d", workers=2, progress=False)
+    assert (tmp_path / "crashed_once").exists() and report.retries >= 1
+    assert report.manifest.complete
+
+
+def test_unit_that_keeps_failing_fails_loudly(tmp_path):
+    c = small_config(count=12, shard_size=6, producer="tests.data.helpers:broken_producer")
+    with pytest.raises(GenerationError, match=r"(?s)shard 0 \(samples 0..5\) failed 3 times; giving up.*always fails"):
+        generate(c, tmp_path / "d", retries=2, progress=False)
+    assert Manifest.load(tmp_path / "d").shards == {}
+
+
+def test_exhausted_attempts_are_not_retried(tmp_path):
+    c = small_config(options={"reject_rate": 1.0}, max_attempts=5)
+    with pytest.raises(GenerationError, match="rejected 5 times in a row"):
+        generate(c, tmp_path / "d", progress=False)
+
+
+def test_kill_9_mid_run_then_rerun_equals_an_uninterrupted_run(tmp_path):
+    args = ["generate", "--partition", "general", "--gender", "m", "--count", "48", "--shard-size", "8",
+            "--seed", "5", "--option", "sleep_ms=15", "--workers", "2", "--no-progress"]
+    out = tmp_path / "killed"
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(REPO))
+    proc = subprocess.Popen([sys.executable, "-m", "pressurepose.cli", *args, "--out", str(out)], cwd=REPO,
+                            env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while len(list(out.glob("shard-*.h5"))) < 2:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "the run made no shards in 60 s"
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)  # the run and its worker processes, mid-run
+    proc.wait()
+    done = sorted(p.name for p in out.glob("shard-*.h5"))
+    assert 2 <= len(done) < 6 and not Manifest.load(out).complete
+    config = Manifest.load(out).config
+    report = generate(config, out, progress=False)  # the same command again
+    assert report.skipped == len(done) and report.made == 6 - len(done)
+    ref = generate(config, tmp_path / "ref", progress=False)
+    _assert_same(_arrays(out), _arrays(tmp_path / "ref"))
+    assert Manifest.load(out).to_dict()["shards"] == ref.manifest.to_dict()["shards"]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST] + [shard_name(k) for k in range(6)]
+
+
+def test_ray_local_instance_gives_the_same_dataset(tmp_path):
+    pytest.importorskip("ray")
+    c = small_config(count=12, shard_size=6)
+    generate(c, tmp_path / "local", progress=False)
+    generate(c, tmp_path / "ray", ray_address="local", progress=False)
+    _assert_same(_arrays(tmp_path / "local"), _arrays(tmp_path / "ray"))
