@@ -53,7 +53,7 @@ ROWS, COLS = 64, 27
 SYNTHETIC_KEYS = ("images", "markers_xyz_m", "root_xyz_shift", "joint_angles", "body_shape", "body_mass",
                   "body_height", "bed_angle_deg", "mesh_depth", "mesh_contact")
 _RZ_PI = np.diag([-1.0, -1.0, 1.0])
-_CENTER2 = np.array([(COLS + 2 * ORIGIN_TAXELS) * PITCH, (ROWS + 2 * ORIGIN_TAXELS) * PITCH, 0.0])
+_CENTER2 = np.array([(COLS + ORIGIN_TAXELS) * PITCH, (ROWS + ORIGIN_TAXELS) * PITCH, 0.0])
 
 
 # --------------------------------------------------------------------------- safe unpickling
@@ -75,10 +75,14 @@ def _numpy_scalar():
     return scalar
 
 
+class UnsafePickle(pickle.UnpicklingError):
+    """The pickle asked for something other than arrays and plain values."""
+
+
 def _latin1_bytes(text, encoding="latin1"):
     """Stand-in for ``_codecs.encode``, which Python 3 protocol-2 pickles use for bytes: latin-1 only."""
     if not isinstance(text, str) or encoding.lower().replace("-", "") != "latin1":
-        raise pickle.UnpicklingError("refusing _codecs.encode other than str -> latin-1 bytes")
+        raise UnsafePickle("refusing _codecs.encode other than str -> latin-1 bytes")
     return text.encode("latin1")
 
 
@@ -99,7 +103,7 @@ class ArrayUnpickler(pickle.Unpickler):
     def find_class(self, module: str, name: str):
         make = _ALLOWED.get((module, name))
         if make is None:
-            raise pickle.UnpicklingError(f"refusing to load global {module}.{name}")
+            raise UnsafePickle(f"refusing to load global {module}.{name}")
         return make()
 
 
@@ -112,9 +116,9 @@ def load_pickle(path: str | Path) -> Any:
         raise BadInput(f"pickle {path}: cannot read ({exc.strerror or exc})") from None
     try:
         return ArrayUnpickler(io.BytesIO(data), encoding="latin1").load()
-    except pickle.UnpicklingError as exc:
-        raise BadInput(f"pickle {path}: unsafe or unreadable ({exc})") from None
-    except (EOFError, ValueError, TypeError, AttributeError, IndexError, KeyError, MemoryError) as exc:
+    except UnsafePickle as exc:
+        raise BadInput(f"pickle {path}: unsafe, refused ({exc})") from None
+    except (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError, IndexError, KeyError, MemoryError) as exc:
         raise BadInput(f"pickle {path}: corrupt or truncated ({type(exc).__name__}: {exc})") from None
 
 

@@ -77,13 +77,12 @@ def _physique(root: Path) -> np.ndarray | None:
 
 def read_slp(root: str | Path, subjects: Sequence[int] | None = None, covers: Sequence[str] = ("uncover",),
              frames: Sequence[int] | None = None, calibrated: bool = True) -> SlpPressure:
-    """Read SLP pressure images (all subjects and frames by default).
+    """Read SLP pressure images (by default every subject folder and every frame file found).
 
     calibrated: multiply each raw array by its ``PMcali.npy`` factor (kPa) and convert to mmHg.
     """
     root = Path(root)
     subjects = list(subjects) if subjects is not None else list_subjects(root)
-    frames = list(frames) if frames is not None else list(range(1, FRAMES + 1))
     bad = [c for c in covers if c not in COVERS]
     if bad:
         raise BadInput(f"SLP covers {bad} are not known; expected some of {', '.join(COVERS)}")
@@ -95,12 +94,16 @@ def read_slp(root: str | Path, subjects: Sequence[int] | None = None, covers: Se
         cali = None
         if calibrated:
             cali = np.asarray(_load_npy(folder / "PMcali.npy"), dtype=np.float64)
-            if cali.ndim != 2 or cali.shape[0] < len(COVERS) or cali.shape[1] < max(frames):
+            if cali.ndim != 2 or cali.shape[0] < len(COVERS):
                 raise BadInput(f"{folder / 'PMcali.npy'} has shape {cali.shape}; expected (3, {FRAMES})")
         row = phys[int(s) - 1] if phys is not None and 0 < int(s) <= len(phys) else None
         for c in covers:
-            for f in frames:
+            chosen = frames if frames is not None else sorted(
+                int(p.stem) for p in (folder / "PMarray" / c).glob("*.npy") if p.stem.isdigit())
+            for f in chosen:
                 path = folder / "PMarray" / c / f"{int(f):06d}.npy"
+                if cali is not None and not 0 < int(f) <= cali.shape[1]:
+                    raise BadInput(f"{folder / 'PMcali.npy'} has no factor for frame {f}")
                 img = np.asarray(_load_npy(path), dtype=np.float64)
                 if img.shape != shape:
                     raise BadInput(f"SLP array {path} has shape {img.shape}; the SLP mat is {shape[0]} x {shape[1]}")

@@ -1,0 +1,76 @@
+"""The generate and info verbs, and the paper recipe."""
+
+import json
+
+import pytest
+
+from pressurepose.cli import main
+from pressurepose.data.dataset import DatasetReader
+from pressurepose.data.recipes import load_recipe
+from pressurepose.errors import BadInput
+
+
+def test_generate_then_info(tmp_path, capsys):
+    out = tmp_path / "d"
+    rc = main(["generate", "--partition", "general_supine", "--gender", "m", "--limbs-on-bed", "--count", "10",
+               "--shard-size", "4", "--seed", "3", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
+    assert rc == 0
+    assert "10/10 samples, made 3 shard(s)" in capsys.readouterr().out
+    rc = main(["generate", "--partition", "general_supine", "--gender", "m", "--limbs-on-bed", "--count", "10",
+               "--shard-size", "4", "--seed", "3", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
+    assert "made 0 shard(s), kept 3" in capsys.readouterr().out
+    assert main(["info", str(out), "--png", str(tmp_path / "i.png")]) == 0
+    text = capsys.readouterr().out
+    assert "general_supine" in text and "yes" in text and "rejected" in text and "pressure (mmHg)" in text
+    assert (tmp_path / "i.png").stat().st_size > 10_000
+
+
+def test_bad_input_is_reported_not_raised(tmp_path, capsys):
+    rc = main(["generate", "--partition", "sideways", "--gender", "f", "--count", "3", "--out", str(tmp_path / "x")])
+    assert rc == 2 and "partition 'sideways' is not known" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+    rc = main(["generate", "--partition", "general", "--out", str(tmp_path / "y")])
+    assert rc == 2 and "give --gender, --count" in capsys.readouterr().err
+
+
+def test_help_says_the_synthetic_producer_is_not_physics(capsys):
+    with pytest.raises(SystemExit):
+        main(["generate", "--help"])
+    assert "NOT physics" in " ".join(capsys.readouterr().out.split())
+
+
+def test_recipe_file_runs_every_entry(tmp_path, capsys):
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "train/a", "split": "train", "partition": "general", "gender": "f", "count": 6, "seed": 1},
+        {"name": "test/a", "split": "test", "partition": "general", "gender": "f", "count": 4, "seed": 2}]}))
+    assert main(["generate", "--recipe", str(recipe), "--out", str(tmp_path / "o"), "--no-progress"]) == 0
+    assert len(DatasetReader(tmp_path / "o")) == 10 and len(DatasetReader(tmp_path / "o" / "test")) == 4
+
+
+def test_paper_recipe_matches_the_paper_table():
+    entries = load_recipe("paper")
+    train = {(e.config.partition, e.config.gender, e.config.limbs_on_bed): e.config.count
+             for e in entries if e.split == "train"}
+    test = {(e.config.partition, e.config.gender, e.config.limbs_on_bed): e.config.count
+            for e in entries if e.split == "test"}
+    assert sum(train.values()) == 184_000 and sum(test.values()) == 22_000
+    by_partition = {}
+    for (p, _, _), n in [*train.items(), *test.items()]:
+        by_partition[p] = by_partition.get(p, 0) + n
+    # paper section 5.1: general 116K, supine 58K, hands behind head 5K, prone hands up 9K, crossed 9K, straight 9K
+    assert by_partition == {"general": 116_000, "general_supine": 58_000, "hands_behind_head": 5_000,
+                            "prone_hands_up": 9_000, "supine_crossed_legs": 9_000, "supine_straight_limbs": 9_000}
+    assert train[("supine_crossed_legs", "m", False)] == 2000 and ("supine_crossed_legs", "m", False) not in test
+    assert {e.config.seed for e in entries if e.split == "train"} != {e.config.seed for e in entries if e.split == "test"}
+    small = load_recipe("paper", scale=0.001)
+    assert [e.config.count for e in small] == [max(1, round(e.config.count / 1000)) for e in entries]
+
+
+def test_recipe_entries_that_would_share_bodies_are_refused(tmp_path):
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "a", "partition": "general", "gender": "f", "count": 6, "seed": 1},
+        {"name": "b", "partition": "general", "gender": "f", "count": 4, "seed": 1}]}))
+    with pytest.raises(BadInput, match="same partition, gender, limbs_on_bed and seed"):
+        load_recipe(recipe)
