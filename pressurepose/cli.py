@@ -14,6 +14,7 @@ import sys
 # verb -> (module, function stem, one-line help)
 VERBS: dict[str, tuple[str, str, str]] = {
     "demo": ("pressurepose.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
+    "calibrate": ("pressurepose.sim.commands", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
     "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
     "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
     "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),

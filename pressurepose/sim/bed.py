@@ -1,0 +1,316 @@
+"""The bed: a mattress, the pressure mat on it, and every physical constant of both.
+
+Frames and grids (all metres):
+
+* **Bed frame** (shared by the whole project): origin at the head-end, left corner of the mat's
+  *sensing area*, on the top surface of the unloaded mattress; x across the bed (along the mat's
+  columns), y along the bed toward the foot (along the rows, row 0 at the head), z up. Taxel
+  ``(r, c)`` covers ``x in [c, c+1) * pitch_col_m``, ``y in [r, r+1) * pitch_row_m``.
+* **Simulated mat** ("full grid"): the sensing grid extended by whole taxels until it covers the
+  mattress (``round(border / pitch)`` taxels on each side), as in the paper (appendix A.3: the
+  synthetic mat covers the bed, only the inner sensing area is recorded). For the BodiTrak on a
+  twin XL mattress it is 72 x 35 taxels. Both simulations load the bed over this grid.
+
+The foundation is a Pasternak (two-parameter) elastic foundation: pressure = ``k_A * w`` plus a
+shear layer of stiffness ``G`` that couples neighbouring points (energy ``G/2 |grad w|^2``). On a
+grid of cells of size ``dx x dy`` that is one vertical spring ``k_A dx dy`` per cell and springs
+``G dy/dx`` (x neighbours) and ``G dx/dy`` (y neighbours) between neighbouring cells, which is what
+:meth:`BedSpec.cell_springs` returns for a dynamic (MuJoCo) model of the same bed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+
+INCH = 0.0254
+
+
+def _check_finite(name: str, v) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
+        raise BadInput(f"{name} is {v!r}; expected a finite number")
+
+
+def _check_positive(name: str, v) -> None:
+    _check_finite(name, v)
+    if v <= 0:
+        raise BadInput(f"{name} is {v!r}; expected a positive number")
+
+
+def _check_non_negative(name: str, v) -> None:
+    _check_finite(name, v)
+    if v < 0:
+        raise BadInput(f"{name} is {v!r}; expected zero or a positive number")
+
+
+@dataclass(frozen=True)
+class MatSpec:
+    """A pressure-sensing mat: a grid of ``rows x cols`` taxels.
+
+    rows run along the bed (y, row 0 at the head end), cols across it (x). ``pitch_row_m`` is the
+    taxel spacing along the bed, ``pitch_col_m`` across it. ``max_mmhg`` is the top of the
+    sensor's range (readings are clipped to ``[0, max_mmhg]``).
+    """
+
+    name: str
+    rows: int
+    cols: int
+    pitch_row_m: float
+    pitch_col_m: float
+    max_mmhg: float = 100.0
+
+    def __post_init__(self):
+        for field in ("rows", "cols"):
+            v = getattr(self, field)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise BadInput(f"mat {field} is {v!r}; expected a positive whole number")
+            object.__setattr__(self, field, int(v))
+        for field in ("pitch_row_m", "pitch_col_m", "max_mmhg"):
+            _check_positive(f"mat {field}", getattr(self, field))
+            object.__setattr__(self, field, float(getattr(self, field)))
+        if not self.pitch_row_m < 0.5 or not self.pitch_col_m < 0.5:
+            raise BadInput(f"mat pitch {self.pitch_row_m} x {self.pitch_col_m} m is not a taxel pitch; "
+                           f"expected metres (e.g. 0.0286)")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.rows, self.cols)
+
+    @property
+    def width_m(self) -> float:
+        """Sensing-area size across the bed (x)."""
+        return self.cols * self.pitch_col_m
+
+    @property
+    def length_m(self) -> float:
+        """Sensing-area size along the bed (y)."""
+        return self.rows * self.pitch_row_m
+
+    @property
+    def taxel_area_m2(self) -> float:
+        return self.pitch_row_m * self.pitch_col_m
+
+
+# Public facts: BodiTrak BT-3510 (paper, REFERENCE section 1); TIP bed sheet (REFERENCE section 1);
+# SLP: 192 x 84 taxels over about 1.92 x 0.84 m, i.e. 1 cm pitch (the BodyPressure code that reads
+# SLP notes "this one is 1.92 x 0.84" and shifts its images in whole centimetres per taxel).
+MATS: dict[str, MatSpec] = {
+    "boditrak_bt3510": MatSpec("boditrak_bt3510", 64, 27, 0.0286, 0.0286, 100.0),
+    "slp": MatSpec("slp", 192, 84, 0.010, 0.010, 100.0),
+    "tip": MatSpec("tip", 56, 40, 0.0311, 0.0195, 100.0),
+}
+DEFAULT_MAT = "boditrak_bt3510"
+
+
+def get_mat(name: str) -> MatSpec:
+    """A mat preset by name; BadInput listing the valid names otherwise."""
+    key = str(name).strip().lower()
+    if key not in MATS:
+        raise BadInput(f"mat preset {name!r} is not known; expected one of {', '.join(sorted(MATS))} "
+                       f"(or build one with custom_mat)")
+    return MATS[key]
+
+
+def custom_mat(rows: int, cols: int, pitch_row_m: float, pitch_col_m: float | None = None,
+               max_mmhg: float = 100.0, name: str = "custom") -> MatSpec:
+    """Any grid: ``rows`` along the bed at ``pitch_row_m``, ``cols`` across at ``pitch_col_m``
+    (defaults to square taxels)."""
+    return MatSpec(name, rows, cols, pitch_row_m, pitch_row_m if pitch_col_m is None else pitch_col_m,
+                   max_mmhg)
+
+
+@dataclass(frozen=True)
+class BedSpec:
+    """The mattress, the mat on it and the constants of the foundation and the sensor.
+
+    Parameters
+    ----------
+    mat: the pressure mat (default the BodiTrak BT-3510).
+    mattress_width_m, mattress_length_m, mattress_thickness_m: twin XL (39 x 80 in) foam
+        mattress, 8 in thick.
+    mat_offset_m: (x, y) of the sensing area's head-left corner measured from the mattress's
+        head-left corner; ``None`` centres the sensing area on the mattress.
+    stiffness_n_m3: the foundation's Winkler modulus k_A (pressure per unit sink), N/m^3.
+    coupling_n_m: the Pasternak shear stiffness G that couples neighbouring points, N/m
+        (0 = plain Winkler). sqrt(G / k_A) is the length over which a dent spreads.
+    damping_s: damping of the foundation as a time constant, damping per area = k_A * damping_s
+        (for the dynamic settle; the quasi-static press ignores it).
+    friction: Coulomb friction between body and sheet.
+    sensor_c0, sensor_c1, sensor_c2: the taxel's quadratic law u = c2 x^2 + c1 x + c0 of its
+        mean contact pressure x (mmHg), applied where the taxel carries load
+        (see :mod:`pressurepose.sim.sensor`).
+    press_cell_m: target size of the cells the press simulation resolves the body's lower surface
+        and the foundation on; each taxel is split into ceil(pitch / press_cell_m) cells per side.
+    """
+
+    mat: MatSpec = dataclasses.field(default_factory=lambda: get_mat(DEFAULT_MAT))
+    mattress_width_m: float = 39 * INCH
+    mattress_length_m: float = 80 * INCH
+    mattress_thickness_m: float = 8 * INCH
+    mat_offset_m: tuple[float, float] | None = None
+    stiffness_n_m3: float = 6.0e4
+    coupling_n_m: float = 60.0
+    damping_s: float = 0.15
+    friction: float = 0.5
+    sensor_c0: float = 0.0
+    sensor_c1: float = 1.0
+    sensor_c2: float = 0.0
+    press_cell_m: float = 0.01
+
+    def __post_init__(self):
+        if not isinstance(self.mat, MatSpec):
+            raise BadInput(f"bed mat is {type(self.mat).__name__}; expected a MatSpec (see get_mat)")
+        for field in ("mattress_width_m", "mattress_length_m", "mattress_thickness_m", "stiffness_n_m3",
+                      "press_cell_m"):
+            _check_positive(f"bed {field}", getattr(self, field))
+        for field in ("coupling_n_m", "damping_s", "friction"):
+            _check_non_negative(f"bed {field}", getattr(self, field))
+        for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
+            _check_finite(f"bed {field}", getattr(self, field))
+        for field in [f.name for f in dataclasses.fields(self) if f.name not in ("mat", "mat_offset_m")]:
+            object.__setattr__(self, field, float(getattr(self, field)))
+        m = self.mat
+        if m.width_m > self.mattress_width_m + 1e-9 or m.length_m > self.mattress_length_m + 1e-9:
+            raise BadInput(f"the {m.name} mat's sensing area ({m.length_m:.3f} x {m.width_m:.3f} m) is larger "
+                           f"than the mattress ({self.mattress_length_m:.3f} x {self.mattress_width_m:.3f} m)")
+        if self.mat_offset_m is None:
+            off = ((self.mattress_width_m - m.width_m) / 2, (self.mattress_length_m - m.length_m) / 2)
+        else:
+            try:
+                off = tuple(float(v) for v in self.mat_offset_m)
+            except (TypeError, ValueError):
+                raise BadInput(f"bed mat_offset_m is {self.mat_offset_m!r}; expected (x, y) in metres") from None
+            if len(off) != 2 or not all(math.isfinite(v) for v in off):
+                raise BadInput(f"bed mat_offset_m is {self.mat_offset_m!r}; expected two finite numbers (x, y)")
+            if (off[0] < -1e-9 or off[1] < -1e-9 or off[0] + m.width_m > self.mattress_width_m + 1e-9
+                    or off[1] + m.length_m > self.mattress_length_m + 1e-9):
+                raise BadInput(f"bed mat_offset_m {off} puts the {m.length_m:.3f} x {m.width_m:.3f} m sensing area "
+                               f"partly off the {self.mattress_length_m:.3f} x {self.mattress_width_m:.3f} m mattress")
+        object.__setattr__(self, "mat_offset_m", off)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def mattress_bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the mattress top in the bed frame."""
+        ox, oy = self.mat_offset_m
+        return (-ox, self.mattress_width_m - ox, -oy, self.mattress_length_m - oy)
+
+    @property
+    def full_grid(self) -> "FullGrid":
+        """The simulated mat: the sensing grid extended by whole taxels to cover the mattress."""
+        m = self.mat
+        ox, oy = self.mat_offset_m
+        left = int(round(ox / m.pitch_col_m))
+        right = int(round((self.mattress_width_m - ox - m.width_m) / m.pitch_col_m))
+        head = int(round(oy / m.pitch_row_m))
+        foot = int(round((self.mattress_length_m - oy - m.length_m) / m.pitch_row_m))
+        return FullGrid(rows=m.rows + head + foot, cols=m.cols + left + right, row0=head, col0=left,
+                        sense_rows=m.rows, sense_cols=m.cols, pitch_row_m=m.pitch_row_m,
+                        pitch_col_m=m.pitch_col_m)
+
+    def taxel_centers(self) -> np.ndarray:
+        """(rows, cols, 2) bed-frame xy of the sensing taxels' centres, metres."""
+        return self.full_grid.centers()[self.full_grid.sensing_slice]
+
+    def xy_to_taxel(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """Sensing-grid (row, col) int indices of the taxels containing bed-frame points xy (..., 2).
+
+        Points outside the sensing area get indices outside ``[0, rows) x [0, cols)``.
+        """
+        xy = np.asarray(xy, dtype=np.float64)
+        if xy.shape[-1:] != (2,):
+            raise BadInput(f"xy has shape {xy.shape}; expected (..., 2) bed-frame x, y in metres")
+        col = np.floor(xy[..., 0] / self.mat.pitch_col_m).astype(np.int64)
+        row = np.floor(xy[..., 1] / self.mat.pitch_row_m).astype(np.int64)
+        return row, col
+
+    # ------------------------------------------------------------------ physics
+    def cell_springs(self, cell_x_m: float | None = None, cell_y_m: float | None = None) -> dict[str, float]:
+        """Spring constants of this foundation on a grid of cells (default: one cell per taxel).
+
+        Returns ``vertical`` (k_A dx dy, N/m per cell), ``damping`` (N s/m per cell),
+        ``coupling_x`` / ``coupling_y`` (N/m between neighbouring cells along x / y), ``friction``.
+        """
+        dx = self.mat.pitch_col_m if cell_x_m is None else float(cell_x_m)
+        dy = self.mat.pitch_row_m if cell_y_m is None else float(cell_y_m)
+        _check_positive("cell_x_m", dx)
+        _check_positive("cell_y_m", dy)
+        k = self.stiffness_n_m3 * dx * dy
+        return {"vertical": k, "damping": k * self.damping_s, "coupling_x": self.coupling_n_m * dy / dx,
+                "coupling_y": self.coupling_n_m * dx / dy, "friction": self.friction}
+
+    @property
+    def spread_length_m(self) -> float:
+        """sqrt(G / k_A): the distance over which the foundation spreads a dent (0 for Winkler)."""
+        return math.sqrt(self.coupling_n_m / self.stiffness_n_m3)
+
+    # ------------------------------------------------------------------ records
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict (mat included)."""
+        d = dataclasses.asdict(self)
+        d["mat_offset_m"] = list(self.mat_offset_m)
+        return d
+
+    @staticmethod
+    def from_dict(d: dict) -> "BedSpec":
+        """Inverse of :meth:`to_dict`; BadInput for unknown or missing fields."""
+        if not isinstance(d, dict) or not isinstance(d.get("mat"), dict):
+            raise BadInput("bed record must be a dict with a 'mat' dict (see BedSpec.to_dict)")
+        known_mat = {f.name for f in dataclasses.fields(MatSpec)}
+        known_bed = {f.name for f in dataclasses.fields(BedSpec)}
+        bad = set(d["mat"]) - known_mat | set(d) - known_bed
+        if bad:
+            raise BadInput(f"bed record has unknown fields {sorted(bad)}")
+        try:
+            mat = MatSpec(**d["mat"])
+            rest = {k: v for k, v in d.items() if k != "mat"}
+            if rest.get("mat_offset_m") is not None:
+                rest["mat_offset_m"] = tuple(rest["mat_offset_m"])
+            return BedSpec(mat=mat, **rest)
+        except TypeError as exc:
+            raise BadInput(f"bed record is incomplete or malformed: {exc}") from None
+
+
+@dataclass(frozen=True)
+class FullGrid:
+    """The simulated mat's taxel grid; its sensing area is ``sense_rows x sense_cols`` taxels
+    starting at (row0, col0)."""
+
+    rows: int
+    cols: int
+    row0: int
+    col0: int
+    sense_rows: int
+    sense_cols: int
+    pitch_row_m: float
+    pitch_col_m: float
+
+    @property
+    def origin_xy(self) -> tuple[float, float]:
+        """Bed-frame (x, y) of the grid's head-left corner."""
+        return (-self.col0 * self.pitch_col_m, -self.row0 * self.pitch_row_m)
+
+    @property
+    def sensing_slice(self) -> tuple[slice, slice]:
+        """Index of the sensing area in arrays over this grid (rows, cols, ...)."""
+        return (slice(self.row0, self.row0 + self.sense_rows), slice(self.col0, self.col0 + self.sense_cols))
+
+    def centers(self) -> np.ndarray:
+        """(rows, cols, 2) bed-frame xy of every cell centre."""
+        x0, y0 = self.origin_xy
+        x = x0 + (np.arange(self.cols) + 0.5) * self.pitch_col_m
+        y = y0 + (np.arange(self.rows) + 0.5) * self.pitch_row_m
+        return np.stack(np.meshgrid(x, y), axis=-1)
+
+
+def get_bed(name: str = DEFAULT_MAT, **overrides) -> BedSpec:
+    """The default bed carrying the named mat preset, with any BedSpec fields overridden."""
+    try:
+        return BedSpec(mat=get_mat(name), **overrides)
+    except TypeError as exc:
+        raise BadInput(f"get_bed: {exc}") from None

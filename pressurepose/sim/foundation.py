@@ -1,0 +1,218 @@
+"""Quasi-static contact of a rigid body with an elastic (Winkler or Pasternak) foundation.
+
+The body's lower surface is a height field ``b0`` (m) over a grid of cells; the body may move
+rigidly by ``q = (h, sx, sy)``: its bottom becomes ``b = b0 + J q`` with ``J_i = (1, x_i - xc,
+y_i - yc)`` (a vertical shift and a small tilt about the centre of mass (xc, yc)). The foundation
+deflects by ``w`` (m, down positive) and pushes on cell i with force ``lam_i`` (N). Equilibrium is
+the minimum of the total potential energy ``1/2 w'Kw + W h`` subject to ``w_i + b_i >= 0`` (the
+sheet cannot rise through the body), ``K = kc I + G L`` (Winkler springs ``kc = k_A dx dy`` per
+cell and Pasternak shear springs between neighbours). Its conditions are exactly the physics asked
+for: ``K w = lam >= 0``, contact only where the gap ``w + b`` is 0, total force ``sum lam = W``
+and zero moment about the centre of mass.
+
+* Winkler (G = 0): ``lam = kc max(0, -b)``, and the problem is a convex one in the 3 unknowns q,
+  solved by Newton's method (:func:`solve_winkler`).
+* Pasternak (G > 0): the dual problem in ``lam`` (flexibility ``K^-1`` applied with a cosine
+  transform, which diagonalises K with free edges) is solved by a conjugate-gradient active-set
+  method in the manner of Polonsky and Keer (1999, Wear 231:206), generalised from one load
+  constraint to the load and two moments (:func:`solve_pasternak`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+
+
+class PressFailed(RuntimeError):
+    """The body has no static equilibrium on the bed (e.g. it is off the mattress, or its centre
+    of mass is outside its support so it would tip over)."""
+
+
+@dataclass(frozen=True)
+class ContactSolution:
+    """lam (n,) cell forces in N; q = (h, sx, sy) rigid shift (m) and slopes; iterations used."""
+
+    lam: np.ndarray
+    q: np.ndarray
+    iterations: int
+
+
+def rigid_jacobian(x: np.ndarray, y: np.ndarray, com_xy) -> np.ndarray:
+    """(n, 3) rows (1, x - xc, y - yc): how a cell's height changes with (h, sx, sy)."""
+    return np.stack([np.ones_like(x), x - com_xy[0], y - com_xy[1]], axis=1)
+
+
+def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell: float, weight_n: float,
+                  max_slope: float = 0.3, max_iter: int = 100) -> ContactSolution:
+    """Rigid body on independent springs ``k_cell`` (N/m) under cells with bottoms ``b0`` (n,).
+
+    Newton's method on the convex, piecewise-quadratic energy in q; exact to round-off.
+    """
+    # first a level sink (slopes 0), found exactly: the force is piecewise linear in the sink s
+    order = np.sort(b0)
+    n = np.arange(1, len(order) + 1)
+    csum = np.cumsum(order)
+    # force when the sink level s equals order[m] is k (m s - sum_{i<m} order[i]) with m below it
+    f_at = k_cell * (n[:-1] * order[1:] - csum[:-1])
+    m = int(np.searchsorted(f_at, weight_n)) + 1  # number of cells in contact at the answer
+    s = (weight_n / k_cell + csum[m - 1]) / m
+    q = np.array([-s, 0.0, 0.0])
+    target = np.array([weight_n, 0.0, 0.0])
+
+    def energy(qq):
+        d = np.maximum(-(b0 + jac @ qq), 0.0)
+        return 0.5 * k_cell * d @ d + weight_n * qq[0]
+
+    scale = np.array([weight_n, weight_n, weight_n])  # N, N m (lever arms are ~1 m)
+    for it in range(max_iter):
+        d = np.maximum(-(b0 + jac @ q), 0.0)
+        lam = k_cell * d
+        grad = target - jac.T @ lam
+        if np.all(np.abs(grad) <= 1e-10 * scale):
+            if np.any(np.abs(q[1:]) > max_slope):
+                raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
+                                  f"its centre of mass is outside the area it rests on")
+            return ContactSolution(lam, q, it)
+        on = d > 0
+        hess = k_cell * jac[on].T @ jac[on]
+        hess += 1e-12 * np.trace(hess) * np.eye(3)
+        step = -np.linalg.solve(hess, grad)
+        e0, t = energy(q), 1.0
+        while energy(q + t * step) > e0 + 1e-4 * t * grad @ step and t > 1e-8:
+            t *= 0.5
+        q = q + t * step
+        if np.any(np.abs(q[1:]) > 10 * max_slope):  # Newton is heading for a tip-over
+            raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
+                              f"its centre of mass is outside the area it rests on")
+    raise PressFailed(f"Winkler contact did not converge in {max_iter} Newton steps")
+
+
+class PasternakFoundation:
+    """A rectangular patch of (ny, nx) cells of size dx x dy of a Pasternak foundation, free edges.
+
+    Stiffness ``K = k_A dx dy I + G (dy/dx) Lx + G (dx/dy) Ly`` (L: 1-D Laplacians with free ends).
+    :meth:`stiffness` applies K with a 5-point stencil; :meth:`flexibility` applies ``K^-1``,
+    which is diagonal in the type-II cosine basis (two FFT-sized transforms).
+    """
+
+    def __init__(self, shape: tuple[int, int], cell_xy: tuple[float, float], k_a: float, g: float):
+        ny, nx = shape
+        dx, dy = cell_xy
+        self.shape = shape
+        self.k_cell = k_a * dx * dy
+        self.gx = g * dy / dx
+        self.gy = g * dx / dy
+        ex = 2.0 - 2.0 * np.cos(np.pi * np.arange(nx) / nx)
+        ey = 2.0 - 2.0 * np.cos(np.pi * np.arange(ny) / ny)
+        self.eig = self.k_cell + self.gx * ex[None, :] + self.gy * ey[:, None]
+
+    def flexibility(self, lam_grid: np.ndarray) -> np.ndarray:
+        """Deflections (m) under cell forces (N), both (..., ny, nx)."""
+        axes = (-2, -1)
+        c = scipy.fft.dctn(lam_grid, type=2, norm="ortho", axes=axes, workers=1)
+        return scipy.fft.idctn(c / self.eig, type=2, norm="ortho", axes=axes, workers=1)
+
+    def stiffness(self, w_grid: np.ndarray) -> np.ndarray:
+        """Cell forces (N) that hold deflections w (m), both (..., ny, nx)."""
+        out = self.k_cell * w_grid
+        d = np.diff(w_grid, axis=-1) * self.gx
+        out[..., :-1] -= d
+        out[..., 1:] += d
+        d = np.diff(w_grid, axis=-2) * self.gy
+        out[..., :-1, :] -= d
+        out[..., 1:, :] += d
+        return out
+
+
+def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
+                    found: PasternakFoundation, weight_n: float, lam0: np.ndarray,
+                    tol: float = 1e-7, max_iter: int = 1000, max_slope: float = 0.3) -> ContactSolution:
+    """Rigid body on a Pasternak foundation, by preconditioned conjugate gradients over the forces.
+
+    b0 (n,) bottoms of the candidate cells, jac (n, 3) their rigid Jacobian rows, flat_index (n,)
+    their positions in the flattened ``found.shape`` patch, lam0 (n,) a starting guess (e.g. the
+    Winkler answer). The dual energy ``1/2 lam' K^-1 lam + lam' b0`` is minimised over lam >= 0
+    with the load and both moments fixed; on the cells in contact, K itself (restricted to them and
+    projected onto the balanced directions) preconditions the CG steps, which leaves only the
+    contact edge to iterate on. Stops when the forces change by less than ``tol * W`` in a step.
+    """
+    size = found.shape[0] * found.shape[1]
+    target = np.array([weight_n, 0.0, 0.0])
+
+    def on_grid(v):  # (..., n) -> (..., ny, nx), zero off the candidate cells
+        g = np.zeros(v.shape[:-1] + (size,))
+        g[..., flat_index] = v
+        return g.reshape(v.shape[:-1] + found.shape)
+
+    def flex(v):
+        return found.flexibility(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index]
+
+    def stiff(v, on):  # K restricted to the contact cells
+        v = np.where(on, v, 0.0)
+        return np.where(on, found.stiffness(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index], 0.0)
+
+    lam = _balance(np.maximum(lam0, 0.0), jac, target)
+    t = np.zeros_like(lam)
+    rho_old, conj, on_old = 1.0, False, None
+    for it in range(1, max_iter + 1):
+        on = lam > 0
+        if on_old is None or not np.array_equal(on, on_old):
+            kj = stiff(jac.T, on)                         # (3, n) K_A J_A
+            jkj = jac[on].T @ kj[:, on].T                 # (3, 3) J' K_A J
+            jkj_inv = np.linalg.inv(jkj + 1e-14 * np.trace(jkj) * np.eye(3))
+            on_old = on
+        raw = flex(lam) + b0                              # gap before the rigid move
+        kr = stiff(raw, on)
+        coef = jkj_inv @ (kj[:, on] @ raw[on])
+        z = kr - coef @ kj                                # projected, preconditioned gradient
+        q = -coef                                         # the rigid move that best closes the gap
+        gap = raw + jac @ q
+        rho = gap[on] @ z[on]  # not raw: its large rigid part would swamp the round-off test
+        t = z + (rho / rho_old) * t if conj else z
+        t = np.where(on, t, 0.0)
+        rho_old = rho
+        ht = flex(t)
+        denom = t[on] @ ht[on]
+        tau = (gap[on] @ t[on]) / denom if denom > 0 else 0.0
+        lam_old = lam
+        lam = np.maximum(lam - tau * t, 0.0)
+        enter = (lam == 0) & (gap < 0)
+        conj = not enter.any() and np.array_equal(lam > 0, on)
+        if enter.any():
+            lam[enter] = -gap[enter] * found.k_cell
+        if not conj:
+            lam = _balance(lam, jac, target)
+        if np.abs(q[1:]).max() > max_slope:
+            raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f})")
+        if np.abs(lam - lam_old).sum() < tol * weight_n:
+            on = lam > 0
+            raw = flex(lam) + b0
+            q = np.linalg.lstsq(jac[on], -raw[on], rcond=None)[0]
+            return ContactSolution(lam, q, it)
+    raise PressFailed(f"Pasternak contact did not converge in {max_iter} iterations")
+
+
+def _balance(lam: np.ndarray, jac: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Scale the forces by exp(J a) so that ``J' lam = target`` exactly (load and both moments),
+    keeping them non-negative: the three-constraint form of Polonsky and Keer's load scaling."""
+    on = lam > 0
+    if not on.any():
+        raise PressFailed("no cell carries load")
+    lj, jj = lam[on], jac[on]
+    a = np.zeros(3)
+    for _ in range(50):
+        f = lj * np.exp(np.clip(jj @ a, -50, 50))
+        res = jj.T @ f - target
+        if np.all(np.abs(res) <= 1e-12 * target[0]):
+            break
+        hess = (jj * f[:, None]).T @ jj
+        a -= np.linalg.solve(hess + 1e-14 * np.trace(hess) * np.eye(3), res)
+    else:
+        raise PressFailed("no equilibrium: the load cannot be balanced about the centre of mass on "
+                          "the cells in contact (the body would tip over)")
+    out = np.zeros_like(lam)
+    out[on] = f
+    return out

@@ -1,0 +1,313 @@
+"""Physics simulation #2: press a rigid body mesh into the bed and read the pressure mat.
+
+The body's lower surface is sampled on a fine grid (each taxel split into cells of about
+``bed.press_cell_m``), the body is treated as rigid and moved by a vertical shift and two small
+tilts about its centre of mass until the foundation (:mod:`pressurepose.sim.foundation`) carries
+exactly its weight with no net moment; the cell forces are summed per taxel and read through the
+sensor model (:mod:`pressurepose.sim.sensor`).
+
+>>> res = press(vertices, faces, mass_kg=62.5, bed=get_bed("boditrak_bt3510"))
+>>> res.pressure.shape, res.force.sum() <= 62.5 * 9.81
+((64, 27), True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import BedSpec, get_bed
+from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, rigid_jacobian,
+                                         solve_pasternak, solve_winkler)
+from pressurepose.sim.raster import lower_surface
+from pressurepose.sim.sensor import read_sensor
+
+GRAVITY = 9.81
+# Depth reported for taxels with no part of the body above them: far above any resting body, so
+# "contact = depth < 0" and a sunk-depth target max(0, -depth) both read "nothing here".
+DEPTH_EMPTY_M = 1.0
+# A body that must turn further than this to find its support was not at rest: it tips over.
+MAX_TILT_RAD = 0.3
+
+__all__ = ["press", "press_heightfield", "body_heightfield", "Heightfield", "PressResult", "PressFailed",
+           "PressGrid", "press_grid", "mesh_centroid", "tilt_transform", "GRAVITY", "DEPTH_EMPTY_M"]
+
+
+@dataclass(frozen=True)
+class PressGrid:
+    """The fine grid of the press over the whole simulated mat (see ``BedSpec.full_grid``):
+    each taxel is ``sub = (rows, cols)`` cells; ``shape`` (ny, nx), ``cell_xy`` (dx, dy) m,
+    ``origin_xy`` the bed-frame corner."""
+
+    sub: tuple[int, int]
+    shape: tuple[int, int]
+    cell_xy: tuple[float, float]
+    origin_xy: tuple[float, float]
+
+    def centers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bed-frame x (nx,) and y (ny,) of the cell centres."""
+        x = self.origin_xy[0] + (np.arange(self.shape[1]) + 0.5) * self.cell_xy[0]
+        y = self.origin_xy[1] + (np.arange(self.shape[0]) + 0.5) * self.cell_xy[1]
+        return x, y
+
+    def per_taxel(self, cells: np.ndarray, reduce=np.add) -> np.ndarray:
+        """(ny, nx) cell values reduced to the full taxel grid (rows, cols) with ``reduce``."""
+        sr, sc = self.sub
+        ny, nx = self.shape
+        blocks = cells.reshape(ny // sr, sr, nx // sc, sc)
+        return reduce.reduce(reduce.reduce(blocks, axis=3), axis=1)
+
+
+def press_grid(bed: BedSpec) -> PressGrid:
+    full = bed.full_grid
+    sr = max(1, math.ceil(full.pitch_row_m / bed.press_cell_m - 1e-9))
+    sc = max(1, math.ceil(full.pitch_col_m / bed.press_cell_m - 1e-9))
+    return PressGrid(sub=(sr, sc), shape=(full.rows * sr, full.cols * sc),
+                     cell_xy=(full.pitch_col_m / sc, full.pitch_row_m / sr), origin_xy=full.origin_xy)
+
+
+@dataclass(frozen=True)
+class PressResult:
+    """What the mat reads under a body at rest, over the sensing area (rows, cols) unless noted.
+
+    pressure: sensor reading, mmHg, clipped to the sensor's range.
+    force: newtons carried by each taxel before the sensor model.
+    depth: the body's lowest point over each taxel after the press, metres relative to the
+        unloaded bed top (negative when sunk); ``DEPTH_EMPTY_M`` (+1 m) where no body is above.
+        The lower surface is sampled at the centres of the press cells (``bed.press_cell_m``),
+        so a rounded bottom between two centres reads about r (cell / 2)^2 / 2 high.
+    contact: ``depth < 0``.
+    bed_force: newtons per taxel over the whole simulated mat (``bed.full_grid``); sums to m g.
+    transform: (4, 4) the rigid motion the press applied to the body (bed frame): a small rotation
+        about the centre of mass and a vertical shift. Apply it to the mesh, root and joints to
+        get the body where the image was made.
+    com: (3,) the body's centre of mass before the press.
+    sink_m: how far the body's lowest point went below the unloaded bed top (positive = sunk).
+    iterations: solver iterations used (all passes).
+    """
+
+    pressure: np.ndarray
+    force: np.ndarray
+    depth: np.ndarray
+    contact: np.ndarray
+    bed_force: np.ndarray
+    transform: np.ndarray
+    com: np.ndarray
+    sink_m: float
+    iterations: int
+
+    @property
+    def shift_m(self) -> float:
+        """How far the press moved the centre of mass up (negative = down)."""
+        return float(self.transform[2, :3] @ self.com + self.transform[2, 3] - self.com[2])
+
+    @property
+    def tilt_rad(self) -> np.ndarray:
+        """(about x, about y): the press's rotation of the body, radians (x-then-y Euler angles)."""
+        r = self.transform[:3, :3]
+        return np.array([math.atan2(r[2, 1], r[2, 2]), math.asin(max(-1.0, min(1.0, -r[2, 0])))])
+
+
+def tilt_transform(com: np.ndarray, shift: float, slope) -> np.ndarray:
+    """The rigid motion whose first-order effect on heights is ``shift + slope . (xy - com_xy)``:
+    rotation about the centre of mass ``com`` (3,), then a vertical shift."""
+    ry = -math.atan(slope[0])  # turning about +y by a lowers +x by a per metre
+    rx = math.atan(slope[1])   # turning about +x by a raises +y by a per metre
+    cx, sx, cy, sy = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry)
+    rot = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    out = np.eye(4)
+    out[:3, :3] = rot
+    out[:3, 3] = com - rot @ com + np.array([0.0, 0.0, shift])
+    return out
+
+
+def mesh_centroid(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, np.ndarray]:
+    """Signed volume (m^3) and volume centroid (3,) of a closed triangle mesh."""
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    ref = vertices.mean(0)  # tetrahedra from a nearby point keep the sums well conditioned
+    a, b, c = a - ref, b - ref, c - ref
+    vol6 = np.einsum("fi,fi->f", a, np.cross(b, c))
+    volume = vol6.sum() / 6.0
+    if volume == 0:
+        return 0.0, ref
+    centroid = ref + (vol6[:, None] * (a + b + c)).sum(0) / (24.0 * volume)
+    return float(volume), centroid
+
+
+@dataclass(frozen=True)
+class Heightfield:
+    """A rigid body's lower surface on the press grid of a bed: ``bottom`` (ny, nx) heights (m,
+    ``+inf`` where no body) and its centre of mass ``com`` (3,). Depends only on the geometry of
+    the bed (mat, mattress, press_cell_m), not on its stiffness or sensor constants."""
+
+    bottom: np.ndarray
+    com: np.ndarray
+    grid: PressGrid
+
+
+def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None) -> Heightfield:
+    """Sample a closed mesh's lower surface on the press grid of ``bed``.
+
+    vertices (V, 3) bed frame, metres; faces (F, 3) int, a closed surface (either winding).
+    ``com_xy`` overrides the centre of mass's x, y (default: the mesh's volume centroid).
+    """
+    bed = _check_bed(bed)
+    verts, tris = _check_mesh(vertices, faces)
+    volume, com = mesh_centroid(verts, tris)
+    if abs(volume) < 1e-12:
+        raise BadInput("the mesh encloses no volume; faces must form a closed surface")
+    if com_xy is not None:
+        xy = np.asarray(com_xy, dtype=np.float64)
+        if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+            raise BadInput(f"com_xy is {com_xy!r}; expected two finite numbers (x, y) in metres")
+        com = np.array([xy[0], xy[1], com[2]])
+    grid = press_grid(bed)
+    return Heightfield(lower_surface(verts, tris, grid.origin_xy, grid.cell_xy, grid.shape), com, grid)
+
+
+def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,
+          margin_m: float | None = None, tol: float = 1e-7, max_linear_tilt: float = 0.01,
+          max_passes: int = 4) -> PressResult:
+    """Rest a rigid body mesh on the bed and read the pressure mat.
+
+    vertices (V, 3) bed frame, metres (anywhere above or in the bed: the press finds the height);
+    faces (F, 3) int, a closed surface (either winding); mass_kg > 0. ``com_xy`` overrides the
+    centre of mass's x, y (default: the mesh's volume centroid). ``margin_m``: the Pasternak
+    foundation is solved on the part of the bed within this distance of the body (default
+    ``max(0.15, 6 sqrt(G / k_A))``, where a dent has faded to < 0.3 %); ``tol``: the solver stops
+    when the forces change by less than ``tol`` m g in an iteration.
+
+    The contact solve treats the tilt to first order (heights change by slope . (xy - com));
+    while it asks for more than ``max_linear_tilt`` rad, the mesh is turned by it about its
+    centre of mass and sampled again (at most ``max_passes`` passes), so the returned transform
+    is a rigid motion whose image was actually pressed.
+    Raises :class:`PressFailed` when the body has no equilibrium on the bed.
+    """
+    bed = _check_bed(bed)
+    verts, tris = _check_mesh(vertices, faces)
+    turned = np.eye(4)
+    iterations = 0
+    for n in range(1, max_passes + 1):
+        moved = verts @ turned[:3, :3].T + turned[:3, 3]
+        res = press_heightfield(body_heightfield(moved, tris, bed, com_xy=com_xy), mass_kg, bed,
+                                margin_m=margin_m, tol=tol)
+        iterations += res.iterations
+        total = res.transform @ turned
+        angle = math.acos(max(-1.0, min(1.0, (np.trace(total[:3, :3]) - 1) / 2)))
+        if angle > MAX_TILT_RAD:
+            raise PressFailed(f"no equilibrium: the body tips over (turns {angle:.2f} rad to find its support)")
+        if np.abs(res.tilt_rad).max() <= max_linear_tilt or n == max_passes:
+            break
+        turned = _rotation_part(res.transform, res.com) @ turned  # about the centre of mass: it stays put
+    return dataclasses.replace(res, transform=total, iterations=iterations)
+
+
+def _rotation_part(transform: np.ndarray, pivot: np.ndarray) -> np.ndarray:
+    """The rotation of a rigid transform, about ``pivot``, without its translation of the pivot."""
+    out = np.eye(4)
+    out[:3, :3] = transform[:3, :3]
+    out[:3, 3] = pivot - transform[:3, :3] @ pivot
+    return out
+
+
+def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m: float | None = None,
+                      tol: float = 1e-7) -> PressResult:
+    """One contact solve for a body already sampled with :func:`body_heightfield` on this bed's
+    grid (for many presses of one shape, e.g. calibration). The tilt is first order only: see
+    :func:`press`."""
+    bed = _check_bed(bed)
+    if isinstance(mass_kg, bool) or not isinstance(mass_kg, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(mass_kg) or mass_kg <= 0:
+        raise BadInput(f"mass_kg is {mass_kg!r}; expected a positive number of kilograms")
+    grid = press_grid(bed)
+    if grid != hf.grid:
+        raise BadInput("the heightfield was sampled on another bed's grid; sample it with this bed")
+    weight = float(mass_kg) * GRAVITY
+    b0, com = hf.bottom, hf.com
+    under = np.isfinite(b0)
+    if not under.any():
+        raise PressFailed("the body is not over the mattress")
+    xs, ys = grid.centers()
+    jj, ii = np.nonzero(under)
+    jac = rigid_jacobian(xs[ii], ys[jj], com[:2])
+    dx, dy = grid.cell_xy
+    sol = solve_winkler(b0[under], jac, bed.stiffness_n_m3 * dx * dy, weight, max_slope=MAX_TILT_RAD)
+    iterations = sol.iterations
+    if bed.coupling_n_m > 0:
+        margin = max(0.15, 6.0 * bed.spread_length_m) if margin_m is None else float(margin_m)
+        j0, j1 = _fast_window(jj.min(), jj.max() + 1, math.ceil(margin / dy), grid.shape[0])
+        i0, i1 = _fast_window(ii.min(), ii.max() + 1, math.ceil(margin / dx), grid.shape[1])
+        found = PasternakFoundation((j1 - j0, i1 - i0), grid.cell_xy, bed.stiffness_n_m3, bed.coupling_n_m)
+        flat = (jj - j0) * (i1 - i0) + (ii - i0)
+        sol = solve_pasternak(b0[under], jac, flat, found, weight, sol.lam, tol=tol, max_slope=MAX_TILT_RAD)
+        iterations += sol.iterations
+
+    bottom = np.full(grid.shape, np.inf)
+    bottom[under] = b0[under] + jac @ sol.q
+    sink = float(-bottom[under].min())
+    if sink > bed.mattress_thickness_m:
+        raise PressFailed(f"the body sinks {sink:.2f} m, through the {bed.mattress_thickness_m:.2f} m mattress")
+    lam = np.zeros(grid.shape)
+    lam[under] = sol.lam
+    bed_force = grid.per_taxel(lam)
+    depth_full = grid.per_taxel(bottom, reduce=np.minimum)
+    sl = bed.full_grid.sensing_slice
+    force = bed_force[sl].copy()
+    depth = np.where(np.isfinite(depth_full[sl]), depth_full[sl], DEPTH_EMPTY_M)
+    return PressResult(
+        pressure=read_sensor(force, bed),
+        force=force,
+        depth=depth,
+        contact=depth < 0,
+        bed_force=bed_force,
+        transform=tilt_transform(com, float(sol.q[0]), sol.q[1:]),
+        com=com.copy(),
+        sink_m=sink,
+        iterations=iterations,
+    )
+
+
+def _check_bed(bed) -> BedSpec:
+    bed = get_bed() if bed is None else bed
+    if not isinstance(bed, BedSpec):
+        raise BadInput(f"bed is {type(bed).__name__}; expected a BedSpec (see get_bed)")
+    return bed
+
+
+def _fast_window(lo: int, hi: int, margin: int, n: int) -> tuple[int, int]:
+    """A window [start, stop) of [0, n) holding [lo, hi) plus ``margin`` cells each side where the
+    grid allows, whose length has only small prime factors (cosine transforms of prime lengths are
+    ten times slower)."""
+    want = min(hi - lo + 2 * margin, n)
+    up = [m for m in range(want, n + 1) if _smooth(m)]
+    length = up[0] if up else next((m for m in range(want - 1, hi - lo - 1, -1) if _smooth(m)), hi - lo)
+    start = min(max((lo + hi - length) // 2, 0), n - length)
+    return start, start + length
+
+
+def _smooth(m: int) -> bool:
+    for p in (2, 3, 5, 7):
+        while m % p == 0:
+            m //= p
+    return m == 1
+
+
+def _check_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        v = np.asarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise BadInput("vertices must be a numeric (V, 3) array in metres") from None
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4:
+        raise BadInput(f"vertices has shape {v.shape}; expected (V, 3) with V >= 4, bed frame metres")
+    if not np.all(np.isfinite(v)):
+        raise BadInput("vertices contain NaN or infinite values")
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) < 4 or not np.issubdtype(f.dtype, np.integer):
+        raise BadInput(f"faces has shape {f.shape} and dtype {f.dtype}; expected (F, 3) integer triangles, F >= 4")
+    if f.min() < 0 or f.max() >= len(v):
+        raise BadInput(f"faces index vertices {f.min()}..{f.max()}; the mesh has {len(v)} vertices")
+    return v, f.astype(np.int64)

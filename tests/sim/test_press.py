@@ -1,0 +1,355 @@
+"""Press: rasterised lower surface, force and moment balance, closed-form sinks, symmetry, errors."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.optimize
+import scipy.sparse as sp
+import scipy.sparse.linalg as spl
+import trimesh
+from matplotlib.path import Path
+
+from pressurepose.errors import BadInput
+from pressurepose.sim import DEPTH_EMPTY_M, GRAVITY, PressFailed, get_bed, press
+from pressurepose.sim.foundation import PasternakFoundation, rigid_jacobian, solve_pasternak, solve_winkler
+from pressurepose.sim.press import body_heightfield, mesh_centroid, press_grid
+from pressurepose.sim.raster import lower_surface
+
+K_A = 6e4
+
+
+def box_on_cells(grid, col0, row0, ncols, nrows, height=0.1):
+    """A box whose footprint is exactly cells [col0, col0+ncols) x [row0, row0+nrows), bottom at z=0."""
+    dx, dy = grid.cell_xy
+    box = trimesh.creation.box(extents=[ncols * dx, nrows * dy, height])
+    box.apply_translation([grid.origin_xy[0] + (col0 + ncols / 2) * dx,
+                           grid.origin_xy[1] + (row0 + nrows / 2) * dy, height / 2])
+    return box
+
+
+def lumpy_body():
+    """An asymmetric closed body: a flattened torso capsule, a head sphere, one leg, one offset box."""
+    torso = trimesh.creation.capsule(height=0.5, radius=0.14, count=[24, 24])
+    torso.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    torso.vertices[:, 2] *= 0.7
+    torso.apply_translation([0.40, 0.75, 0.0])
+    head = trimesh.creation.icosphere(2, 0.09).apply_translation([0.40, 0.33, 0.0])
+    leg = trimesh.creation.capsule(height=0.7, radius=0.06, count=[16, 16])
+    leg.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2 - 0.1, [1, 0, 0]))
+    leg.apply_translation([0.47, 1.4, 0.0])
+    block = trimesh.creation.box(extents=[0.12, 0.2, 0.08]).apply_translation([0.2, 0.9, 0.02])
+    mesh = trimesh.util.concatenate([torso, head, leg, block])
+    mesh.apply_translation([0, 0, -mesh.vertices[:, 2].min()])
+    return mesh
+
+
+# ------------------------------------------------------------------ raster
+def test_raster_interpolates_planes_exactly_and_leaves_gaps_empty():
+    grid_shape, origin, cell = (40, 30), (0.0, 0.0), (0.01, 0.02)
+    v = np.array([[0.05, 0.1, 0.0], [0.25, 0.15, 0.0], [0.1, 0.7, 0.0]])
+    v[:, 2] = 0.3 * v[:, 0] - 0.2 * v[:, 1] + 0.05  # a tilted plane
+    h = lower_surface(v, np.array([[0, 1, 2]]), origin, cell, grid_shape)
+    jj, ii = np.nonzero(np.isfinite(h))
+    x, y = (ii + 0.5) * cell[0], (jj + 0.5) * cell[1]
+    np.testing.assert_allclose(h[jj, ii], 0.3 * x - 0.2 * y + 0.05, atol=1e-12)
+    # exactly the cell centres inside the triangle are filled
+    xs, ys = np.meshgrid((np.arange(30) + 0.5) * 0.01, (np.arange(40) + 0.5) * 0.02)
+    inside = Path(v[:, :2]).contains_points(np.stack([xs.ravel(), ys.ravel()], 1)).reshape(40, 30)
+    np.testing.assert_array_equal(np.isfinite(h), inside)
+
+
+def test_raster_takes_the_lowest_surface_of_a_closed_mesh():
+    grid = press_grid(get_bed())
+    box = box_on_cells(grid, 40, 50, 12, 20, height=0.2)
+    box.apply_translation([0, 0, 0.03])
+    h = lower_surface(box.vertices, box.faces, grid.origin_xy, grid.cell_xy, grid.shape)
+    filled = np.isfinite(h)
+    assert filled.sum() == 12 * 20 and filled[50:70, 40:52].all()
+    np.testing.assert_allclose(h[filled], 0.03, atol=1e-12)
+
+
+# ------------------------------------------------------------------ balance and closed forms
+@pytest.mark.parametrize("coupling", [0.0, 60.0])
+@pytest.mark.parametrize("mass", [3.0, 25.0, 80.0])
+def test_total_force_is_the_weight(mass, coupling):
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=coupling)
+    res = press(*_mesh(lumpy_body()), mass, bed)
+    assert res.bed_force.sum() == pytest.approx(mass * GRAVITY, rel=1e-6)
+    assert res.force.sum() <= res.bed_force.sum() + 1e-9
+    assert np.all(res.force >= 0) and np.all(np.isfinite(res.pressure))
+
+
+def test_flat_box_on_winkler_sinks_by_weight_over_stiffness_times_area():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=0.0)
+    grid = press_grid(bed)
+    box = box_on_cells(grid, 30, 42, 24, 36)  # whole taxels (3 x 3 cells each)
+    for mass in (5.0, 40.0):
+        res = press(*_mesh(box), mass, bed)
+        area = 24 * 36 * grid.cell_xy[0] * grid.cell_xy[1]
+        assert res.sink_m == pytest.approx(mass * GRAVITY / (K_A * area), rel=1e-9)
+        np.testing.assert_allclose(res.tilt_rad, 0, atol=1e-12)
+        # every covered cell carries the same force
+        assert np.ptp(res.bed_force[res.bed_force > 0]) < 1e-9
+
+
+def test_horizontal_cylinder_on_winkler_sinks_as_the_closed_form_says():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=0.0)
+    grid = press_grid(bed)
+    dx, dy = grid.cell_xy
+    radius, ncell = 0.1, 60
+    length = ncell * dy
+    x0 = grid.origin_xy[0] + 45 * dx  # on a cell boundary: symmetric sampling across the axis
+    cyl = trimesh.creation.cylinder(radius=radius, height=length, sections=720)
+    cyl.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    cyl.apply_translation([x0, grid.origin_xy[1] + 60 * dy + length / 2, radius])
+    xs = (np.arange(-30, 30) + 0.5) * dx  # cell centres across the axis
+    for mass in (5.0, 20.0):
+        weight = mass * GRAVITY
+        res = press(*_mesh(cyl), mass, bed)
+
+        def continuum(d):  # k L x (area of the circular segment of depth d)
+            a = math.sqrt(2 * radius * d - d * d)
+            return K_A * length * (radius ** 2 * math.asin(a / radius) - a * (radius - d)) - weight
+
+        def sampled(d):  # the same integral sampled at the press's cell centres
+            pen = np.maximum(d - (radius - np.sqrt(np.maximum(radius ** 2 - xs ** 2, 0))), 0)
+            return K_A * dx * dy * ncell * pen.sum() - weight
+
+        d_cont = scipy.optimize.brentq(continuum, 1e-9, radius)
+        d_disc = scipy.optimize.brentq(sampled, 1e-9, radius)
+        lowest_sample = radius - math.sqrt(radius ** 2 - (dx / 2) ** 2)  # centres sit dx/2 off the axis
+        assert res.sink_m + lowest_sample == pytest.approx(d_disc, rel=1e-4)
+        assert res.sink_m + lowest_sample == pytest.approx(d_cont, rel=0.01)
+        assert abs(res.tilt_rad).max() < 1e-9
+
+
+def test_flat_strip_on_pasternak_carries_the_shear_ring_of_the_closed_form():
+    g_shear = 30.0
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=g_shear)
+    grid = press_grid(bed)
+    dx, dy = grid.cell_xy
+    nx, ny = 20, 100
+    mass = 30.0
+    res = press(*_mesh(box_on_cells(grid, 30, 40, nx, ny)), mass, bed)
+    d = res.sink_m
+    kc, gx, gy = K_A * dx * dy, g_shear * dy / dx, g_shear * dx / dy
+
+    def decay(eps):  # outside a straight edge the sheet falls off as rho^n, rho + 1/rho = 2 + eps
+        return (2 + eps - math.sqrt((2 + eps) ** 2 - 4)) / 2
+
+    edge = 2 * ny * gx * (1 - decay(kc / gx)) + 2 * nx * gy * (1 - decay(kc / gy))
+    weight = mass * GRAVITY
+    assert d * (kc * nx * ny + edge) == pytest.approx(weight, rel=0.01)  # the four corners add the rest
+    assert d * kc * nx * ny < 0.85 * weight  # without the shear ring it would sink 20 % deeper
+    # continuum closed form F = d (k A + sqrt(k G) perimeter), to discretisation error
+    area, perim = nx * dx * ny * dy, 2 * (nx * dx + ny * dy)
+    assert d * (K_A * area + math.sqrt(K_A * g_shear) * perim) == pytest.approx(weight, rel=0.06)
+
+
+def test_pasternak_solution_meets_the_contact_conditions():
+    """Check the CG answer against a sparse direct solve of K w = lam on the same patch."""
+    k_a, g_shear, mass = 5e4, 80.0, 12.0
+    bed = get_bed(stiffness_n_m3=k_a, coupling_n_m=g_shear)
+    grid = press_grid(bed)
+    cap = trimesh.creation.capsule(height=0.25, radius=0.07, count=[24, 24])
+    cap.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0.3, 0]))
+    cap.apply_translation([0.35, 0.8, 0.06])
+    hf = body_heightfield(cap.vertices, cap.faces, bed)
+    under = np.isfinite(hf.bottom)
+    jj, ii = np.nonzero(under)
+    j0, i0 = jj.min() - 15, ii.min() - 15
+    shape = (jj.max() + 16 - j0, ii.max() + 16 - i0)
+    xs, ys = grid.centers()
+    jac = rigid_jacobian(xs[ii], ys[jj], hf.com[:2])
+    dx, dy = grid.cell_xy
+    weight = mass * GRAVITY
+    lam0 = solve_winkler(hf.bottom[under], jac, k_a * dx * dy, weight).lam
+    found = PasternakFoundation(shape, grid.cell_xy, k_a, g_shear)
+    flat = (jj - j0) * shape[1] + (ii - i0)
+    sol = solve_pasternak(hf.bottom[under], jac, flat, found, weight, lam0, tol=1e-9)
+
+    def lap(n):
+        main = np.full(n, 2.0)
+        main[[0, -1]] = 1.0
+        return sp.diags([-np.ones(n - 1), main, -np.ones(n - 1)], [-1, 0, 1])
+
+    ny, nx = shape
+    stiff = (k_a * dx * dy * sp.eye(nx * ny) + g_shear * dy / dx * sp.kron(sp.eye(ny), lap(nx))
+             + g_shear * dx / dy * sp.kron(lap(ny), sp.eye(nx))).tocsc()
+    lam = np.zeros(nx * ny)
+    lam[flat] = sol.lam
+    w = spl.spsolve(stiff, lam)
+    gap = w[flat] + hf.bottom[under] + jac @ sol.q
+    on = sol.lam > 0
+    assert gap.min() > -1e-8                       # the sheet never rises through the body
+    assert np.abs(gap[on]).max() < 1e-8            # it touches wherever it pushes
+    assert sol.lam.min() >= 0                      # it only pushes
+    np.testing.assert_allclose(jac.T @ sol.lam, [weight, 0, 0], atol=1e-8 * weight)  # force, 2 moments
+    assert on.sum() < under.sum()                  # the contact set is a real subset
+
+
+def test_centre_of_pressure_lies_under_the_centre_of_mass():
+    body = lumpy_body()
+    for coupling in (0.0, 60.0):
+        bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=coupling, press_cell_m=0.0286 / 4)
+        res = press(*_mesh(body), 40.0, bed)
+        centres = bed.full_grid.centers()
+        cop = (res.bed_force[..., None] * centres).sum((0, 1)) / res.bed_force.sum()
+        # taxel-level centre of pressure vs the exact cell-level one: within a quarter taxel
+        np.testing.assert_allclose(cop, res.com[:2], atol=0.0286 / 4)
+        _, centroid = mesh_centroid(body.vertices, body.faces)
+        np.testing.assert_allclose(res.com, centroid, atol=1e-12)
+
+
+def test_an_off_centre_weight_tilts_the_body_toward_it():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=0.0)
+    grid = press_grid(bed)
+    box = box_on_cells(grid, 30, 40, 30, 30)
+    centre = box.vertices.mean(0)[:2]
+    for shift in ([0.01, 0.0], [0.0, -0.008]):
+        res = press(*_mesh(box), 20.0, bed, com_xy=centre + np.array(shift))
+        # heavy on +x: the +x side goes down, a rotation about +y by a positive angle; heavy on -y:
+        # the -y side goes down, a rotation about +x by a positive angle
+        for tilt, s in zip(res.tilt_rad, (-shift[1], shift[0])):
+            assert (abs(tilt) < 1e-9) if s == 0 else (np.sign(tilt) == np.sign(s) and abs(tilt) > 0.01)
+        centres = bed.full_grid.centers()
+        cop = (res.bed_force[..., None] * centres).sum((0, 1)) / res.bed_force.sum()
+        np.testing.assert_allclose(cop, centre + shift, atol=0.002)
+
+
+def test_transform_moves_the_body_to_where_the_press_left_it():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=60.0)
+    body = lumpy_body()
+    res = press(*_mesh(body), 50.0, bed)
+    t = res.transform
+    assert np.allclose(t[:3, :3] @ t[:3, :3].T, np.eye(3)) and np.linalg.det(t[:3, :3]) == pytest.approx(1)
+    assert 0.02 < abs(res.tilt_rad).max() < 0.1  # this lopsided body needs a real tilt
+    moved = body.vertices @ t[:3, :3].T + t[:3, 3]
+    assert moved[:, 2].min() == pytest.approx(-res.sink_m, abs=1e-3)  # vertices vs sampled surface
+    np.testing.assert_allclose(t[:3, :3] @ res.com + t[:3, 3] - res.com, [0, 0, res.shift_m], atol=1e-12)
+    again = press(moved, body.faces, 50.0, bed)  # pressing the pressed body moves it no further
+    assert abs(again.shift_m) < 2e-4 and abs(again.tilt_rad).max() < 0.01
+    np.testing.assert_allclose(again.pressure, res.pressure, atol=0.05 * res.pressure.max())
+
+
+# ------------------------------------------------------------------ outputs
+def test_depth_contact_and_empty_taxels():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=60.0)
+    res = press(*_mesh(lumpy_body()), 50.0, bed)
+    assert res.depth.shape == res.pressure.shape == res.force.shape == res.contact.shape == (64, 27)
+    np.testing.assert_array_equal(res.contact, res.depth < 0)
+    assert res.depth.min() == pytest.approx(-res.sink_m)
+    empty = res.depth == DEPTH_EMPTY_M
+    assert empty.any() and (~empty).any() and np.all(res.force[empty] == 0)
+    assert np.all(res.depth[~empty] < 0.5)
+    assert np.all(res.force[res.contact].sum() > 0.9 * res.force.sum())
+
+
+@pytest.mark.parametrize("coupling", [0.0, 60.0])
+def test_mirrored_body_gives_a_mirrored_image(coupling):
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=coupling)
+    body = lumpy_body()
+    mirrored = body.vertices * [-1, 1, 1] + [bed.mat.width_m, 0, 0]
+    a = press(body.vertices, body.faces, 45.0, bed)
+    b = press(mirrored, body.faces[:, ::-1], 45.0, bed)
+    np.testing.assert_allclose(b.force, a.force[:, ::-1], atol=1e-6 * a.force.max())
+    np.testing.assert_allclose(b.pressure, a.pressure[:, ::-1], atol=1e-6 * a.pressure.max())
+    np.testing.assert_allclose(b.depth, a.depth[:, ::-1], atol=1e-7)
+    assert b.sink_m == pytest.approx(a.sink_m)
+
+
+def test_heavier_presses_harder_and_deeper():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=60.0)
+    body = _mesh(lumpy_body())
+    results = [press(*body, m, bed) for m in (30.0, 60.0, 90.0)]
+    for light, heavy in zip(results, results[1:]):
+        assert heavy.force.sum() > light.force.sum()
+        assert heavy.sink_m > light.sink_m
+        assert heavy.pressure.max() >= light.pressure.max()
+        assert heavy.contact.sum() >= light.contact.sum()
+        assert np.all(heavy.depth <= light.depth + 1e-12)
+
+
+def test_stiffer_bed_sinks_less():
+    body = _mesh(lumpy_body())
+    soft = press(*body, 60.0, get_bed(stiffness_n_m3=3e4, coupling_n_m=30.0))
+    hard = press(*body, 60.0, get_bed(stiffness_n_m3=1e5, coupling_n_m=30.0))
+    coupled = press(*body, 60.0, get_bed(stiffness_n_m3=3e4, coupling_n_m=300.0))
+    assert hard.sink_m < soft.sink_m and coupled.sink_m < soft.sink_m
+    assert hard.contact.sum() < soft.contact.sum()
+
+
+def test_random_meshes_never_give_nan():
+    """Random convex bodies dropped anywhere: a finite, balanced answer or a clear PressFailed."""
+    rng = np.random.default_rng(7)
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=60.0)
+    solved = 0
+    for _ in range(16):
+        pts = rng.normal(size=(40, 3)) * np.r_[rng.uniform(0.05, 0.2, size=2), rng.uniform(0.01, 0.03)]
+        hull = trimesh.convex.convex_hull(pts)
+        hull.apply_translation([rng.uniform(0.1, 0.65), rng.uniform(0.2, 1.6), -hull.vertices[:, 2].min()
+                                + rng.uniform(-0.05, 0.05)])
+        mass = float(rng.uniform(0.5, 30))
+        try:
+            res = press(*_mesh(hull), mass, bed)
+        except PressFailed:
+            continue  # a tall hull resting on a corner may tip over
+        solved += 1
+        for arr in (res.pressure, res.force, res.depth, res.bed_force):
+            assert np.all(np.isfinite(arr))
+        assert res.bed_force.sum() == pytest.approx(mass * GRAVITY, rel=1e-6)
+        assert np.all(res.pressure >= 0) and np.all(res.pressure <= bed.mat.max_mmhg)
+    assert solved >= 12
+
+
+def test_other_mats_press_too():
+    body = _mesh(lumpy_body())
+    for name in ("slp", "tip"):
+        bed = get_bed(name, stiffness_n_m3=K_A, coupling_n_m=60.0)
+        res = press(*body, 40.0, bed)
+        assert res.pressure.shape == bed.mat.shape
+        assert res.bed_force.sum() == pytest.approx(40 * GRAVITY, rel=1e-6)
+
+
+# ------------------------------------------------------------------ failures
+def test_bad_inputs_are_named():
+    body = lumpy_body()
+    v, f = body.vertices, body.faces
+    bad_v = v.copy()
+    bad_v[3, 1] = np.nan
+    cases = [((bad_v, f, 50.0), "NaN"), ((v[:, :2], f, 50.0), "vertices"), ((v, f[:, :2], 50.0), "faces"),
+             ((v, f + len(v), 50.0), "index"), ((v, f.astype(float), 50.0), "faces"), ((v, f, -3.0), "mass_kg"),
+             ((v, f, float("nan")), "mass_kg"), ((v, f, True), "mass_kg")]
+    for args, match in cases:
+        with pytest.raises(BadInput, match=match):
+            press(*args)
+    with pytest.raises(BadInput, match="BedSpec"):
+        press(v, f, 50.0, bed="boditrak_bt3510")
+    with pytest.raises(BadInput, match="com_xy"):
+        press(v, f, 50.0, com_xy=[0.1])
+    flat = trimesh.creation.box(extents=[0.2, 0.2, 0.1])
+    with pytest.raises(BadInput, match="volume"):
+        press(flat.vertices * [1, 1, 0] + [0.3, 0.5, 0], flat.faces, 5.0)
+
+
+def test_bodies_without_equilibrium_fail_clearly():
+    off = lumpy_body().apply_translation([5.0, 0, 0])
+    with pytest.raises(PressFailed, match="not over the mattress"):
+        press(off.vertices, off.faces, 50.0)
+    # a small foot touching the bed, a big block held above it beside the foot: it tips over
+    foot = trimesh.creation.box(extents=[0.05, 0.05, 0.5]).apply_translation([0.2, 0.8, 0.25])
+    arm = trimesh.creation.box(extents=[0.5, 0.1, 0.05]).apply_translation([0.47, 0.8, 0.5])
+    lever = trimesh.util.concatenate([foot, arm])
+    for coupling in (0.0, 60.0):
+        with pytest.raises(PressFailed, match="tips over|through the"):
+            press(lever.vertices, lever.faces, 20.0, get_bed(coupling_n_m=coupling))
+    # a brick on its end, too heavy for the mattress: it bottoms out
+    bed = get_bed(coupling_n_m=0.0)
+    brick = box_on_cells(press_grid(bed), 30, 30, 15, 15, height=0.3)
+    with pytest.raises(PressFailed, match="through the"):
+        press(*_mesh(brick), 300.0, bed)
+
+
+def _mesh(m):
+    return np.asarray(m.vertices), np.asarray(m.faces)
