@@ -79,7 +79,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
 
 def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
     """(meta record, state dict) of a saved model; BadInput for anything that is not one."""
-    from safetensors import SafetensorsError
+    from safetensors import SafetensorError
     from safetensors.torch import load_file
 
     path = Path(path)
@@ -104,7 +104,7 @@ def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
             raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it")
         try:
             weights = load_file(str(path))
-        except (SafetensorsError, OSError, ValueError) as exc:
+        except (SafetensorError, OSError, ValueError) as exc:
             raise BadInput(f"model file {str(path)!r} is not a valid safetensors file ({exc})") from None
         meta_text = meta_path.read_text()
     else:

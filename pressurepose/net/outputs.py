@@ -157,6 +157,8 @@ class OutputLayer(nn.Module):
         self.register_buffer("scale", config.gain * scale, persistent=False)
         self.register_buffer("angle_mid", (lo + hi) / 2, persistent=False)
         self.register_buffer("angle_range", hi - lo, persistent=False)
+        self.register_buffer("angle_lower", lo, persistent=False)
+        self.register_buffer("angle_upper", hi, persistent=False)
 
     def forward(self, raw: torch.Tensor, base: BodyParams | None = None) -> BodyParams:
         raw = raw.float()
@@ -165,6 +167,8 @@ class OutputLayer(nn.Module):
         betas = BETA_LIMIT * torch.tanh(u[:, SL_BETAS] / BETA_LIMIT)
         half = self.angle_range / 2
         angles = self.angle_mid + half * torch.tanh((u[:, SL_ANGLES] - self.angle_mid) / half)
+        # the tanh keeps angles inside; the clamp only removes float rounding at saturation
+        angles = torch.minimum(torch.maximum(angles, self.angle_lower), self.angle_upper)
         euler = pairs_to_euler(u[:, SL_ROOT])
         return BodyParams(unconstrained=u, betas=betas, transl=u[:, SL_TRANSL], root_euler=euler,
                           global_orient=euler_to_root_axis_angle(euler), body_pose=angles)

@@ -21,7 +21,7 @@ use a CUDA GPU with mixed precision when there is one, and write into ``out_dir`
 (always), TensorBoard events in ``tb/`` (when the ``tensorboard`` package is importable), the
 resumable state ``state.safetensors`` + ``state.json`` after every epoch, and the final
 ``model.safetensors`` + ``model.json``. Running again with the same config and data resumes from
-the last finished epoch.
+the last saved epoch (the epoch counts may be raised to train on; the device may change).
 """
 
 from __future__ import annotations
@@ -60,12 +60,16 @@ class TrainConfig:
     loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
     training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
     out for the per-epoch validation (seeded split). gain: output gain (:mod:`.outputs`).
+    lr_mod2: Mod2's learning rate (default: lr, as the paper). dropout: the CNN's dropout (paper 0.1). use_pmr, edges_contact, noise: the paper's ablations.
+    save_every: epochs between resumable states (the last epoch of each stage is always saved).
+    device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
     """
 
     epochs_mod1: int = 100
     epochs_mod2: int = 100
     batch_size: int = 128
     lr: float = 2e-5
+    lr_mod2: float | None = None
     weight_decay: float = 5e-4
     noise: bool = True
     noise_config: NoiseConfig = field(default_factory=NoiseConfig)
@@ -74,20 +78,22 @@ class TrainConfig:
     upsample: int = 2
     blur_sigma: float = 0.5
     gender_input: bool = False
+    dropout: float = 0.1
     gain: float = 0.1
     loss_sigmas: str = "paper"
     val_fraction: float = 0.0
     seed: int = 0
     device: str = "auto"
     amp: bool = True
+    save_every: int = 1
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
             if getattr(self, name) < 0:
                 raise BadInput(f"{name} = {getattr(self, name)}; expected >= 0")
-        if self.batch_size < 1 or self.upsample < 1:
-            raise BadInput("batch_size and upsample must be >= 1")
-        if not self.lr > 0 or self.weight_decay < 0:
+        if self.batch_size < 1 or self.upsample < 1 or self.save_every < 1:
+            raise BadInput("batch_size, upsample and save_every must be >= 1")
+        if not self.lr > 0 or self.weight_decay < 0 or (self.lr_mod2 is not None and not self.lr_mod2 > 0):
             raise BadInput(f"lr = {self.lr} must be > 0 and weight_decay = {self.weight_decay} >= 0")
         if self.loss_sigmas not in ("paper", "data"):
             raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
@@ -197,15 +203,21 @@ def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> 
     return NetConfig(grid=grid, outputs=outputs,
                      inputs=InputConfig(upsample=config.upsample, blur_sigma=config.blur_sigma,
                                         edges_contact=config.edges_contact),
-                     pmr=PMRConfig(), use_pmr=config.use_pmr, gender_input=config.gender_input)
+                     pmr=PMRConfig(), use_pmr=config.use_pmr, gender_input=config.gender_input,
+                     dropout=config.dropout)
 
 
 class _Logger:
     FIELDS = ["stage", "epoch", "train_loss", "train_joints_cm", "val_loss", "val_mpjpe_cm", "seconds",
               "images_per_s"]
 
-    def __init__(self, out_dir: Path):
+    def __init__(self, out_dir: Path, history: list[dict]):
+        """Starts log.csv afresh with the rows of ``history`` (those of the saved state)."""
         self.path = out_dir / "log.csv"
+        with open(self.path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=self.FIELDS)
+            w.writeheader()
+            w.writerows({k: row.get(k, "") for k in self.FIELDS} for row in history)
         self.tb = None
         try:
             from torch.utils.tensorboard import SummaryWriter
@@ -215,17 +227,12 @@ class _Logger:
             pass
 
     def write(self, row: dict) -> None:
-        new = not self.path.exists()
         with open(self.path, "a", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=self.FIELDS)
-            if new:
-                w.writeheader()
-            w.writerow({k: row.get(k, "") for k in self.FIELDS})
+            csv.DictWriter(f, fieldnames=self.FIELDS).writerow({k: row.get(k, "") for k in self.FIELDS})
         if self.tb is not None:
-            step = row["epoch"] + (0 if row["stage"] == 1 else 10 ** 6)
             for k in self.FIELDS[2:]:
                 if isinstance(row.get(k), float) and math.isfinite(row[k]):
-                    self.tb.add_scalar(f"mod{row['stage']}/{k}", row[k], step)
+                    self.tb.add_scalar(f"mod{row['stage']}/{k}", row[k], row["epoch"])
             self.tb.flush()
 
     def close(self) -> None:
@@ -260,8 +267,9 @@ def _load_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, rec
 
 
 # ---------------------------------------------------------------------------------------- training
-def _optimizer(module: torch.nn.Module, config: TrainConfig) -> torch.optim.Optimizer:
-    return torch.optim.Adam(module.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+def _optimizer(module: torch.nn.Module, config: TrainConfig, stage: int) -> torch.optim.Optimizer:
+    lr = config.lr_mod2 if stage == 2 and config.lr_mod2 is not None else config.lr
+    return torch.optim.Adam(module.parameters(), lr=lr, weight_decay=config.weight_decay)
 
 
 def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: TrainConfig, maps: bool):
@@ -301,8 +309,10 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     val_idx, train_idx = perm[:n_val].sort().values, perm[n_val:].sort().values
 
     net_config = net_config_for(config, grid, data["transl"][train_idx])
+    torch.manual_seed(config.seed)  # the initial weights
     net = PressureNet(net_config, gendered_body(*bodies)).to(device)
-    identity = {"train": config.to_dict(), "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
+    resumable = {k: v for k, v in config.to_dict().items() if k not in ("epochs_mod1", "epochs_mod2", "device")}
+    identity = {"train": resumable, "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
                 "data": _fingerprint(data)}
     identity = json.loads(json.dumps(identity))  # tuples -> lists, as stored
 
@@ -323,8 +333,8 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
 
     use_amp = config.amp and device.type == "cuda"
     amp_dtype = torch.bfloat16 if use_amp and torch.cuda.is_bf16_supported() else torch.float16
-    logger = _Logger(out_dir)
     history = list(record["history"]) if record else []
+    logger = _Logger(out_dir, history)
     resume_stage, resume_epoch = (record["stage"], record["epoch"] + 1) if record else (1, 0)
 
     try:
@@ -335,7 +345,7 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
             module = net.mod1 if stage == 1 else net.mod2
             for p in net.mod1.parameters():
                 p.requires_grad_(stage == 1)
-            opt = _optimizer(module, config)
+            opt = _optimizer(module, config, stage)
             first = 0
             if record and stage == resume_stage:
                 _load_state(out_dir, net, opt, record)
@@ -383,8 +393,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     row.update(_validate(net, stage, data, val_idx, q_true, c_true, scales, config, device))
                 logger.write(row)
                 history.append(row)
-                _save_state(out_dir, net, opt, {"identity": identity, "stage": stage, "epoch": epoch,
-                                                "history": history})
+                if (epoch + 1) % config.save_every == 0 or epoch == epochs - 1:
+                    _save_state(out_dir, net, opt, {"identity": identity, "stage": stage, "epoch": epoch,
+                                                    "history": history})
     finally:
         logger.close()
     meta = {"loss_scales": dataclasses.asdict(scales), "train": config.to_dict(),

@@ -1,0 +1,95 @@
+import dataclasses
+import json
+import os
+import pickle
+
+import pytest
+import torch
+
+from pressurepose.body.model import BodyModel
+from pressurepose.body.toy import toy_body_arrays
+from pressurepose.errors import BadInput
+from pressurepose.net.checkpoint import gendered_body, load_model, save_model
+from pressurepose.net.model import NetConfig, PressureNet
+from pressurepose.net.outputs import OutputConfig
+from pressurepose.net.pmr import MatGrid
+from tests.net.synth import toy_dataset
+
+torch.set_num_threads(1)
+GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+
+
+def _net():
+    torch.manual_seed(0)
+    body = BodyModel(toy_body_arrays())
+    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((0.5, 1.0, 0.2), (0.3, 0.3, 0.1)))
+    net = PressureNet(cfg, gendered_body(body, body)).eval()
+    torch.nn.init.normal_(net.mod2.cnn.fc.weight, std=1e-3)  # not the zero init, to see it restored
+    return net, body
+
+
+@pytest.mark.parametrize("suffix", [".safetensors", ".pt"])
+def test_round_trip(tmp_path, suffix):
+    net, body = _net()
+    path = save_model(tmp_path / f"m{suffix}", net, (body, body), {"note": "x"})
+    loaded, meta = load_model(path)
+    assert meta["note"] == "x" and meta["bodies"]["female"]["spec"] == "toy"
+    assert loaded.config == net.config
+    data = toy_dataset(3, grid=GRID)
+    with torch.no_grad():
+        a = net(data["pressure"], data["gender"])[1]
+        b = loaded(data["pressure"], data["gender"])[1]
+    assert torch.equal(a.vertices, b.vertices) and torch.equal(a.maps.q, b.maps.q)
+    if suffix == ".safetensors":
+        assert json.loads((tmp_path / "m.json").read_text())["format"].startswith("pressurepose")
+        save_model(tmp_path / "run" / "model.safetensors", net, (body, body))
+        assert load_model(tmp_path / "run")[0].config == net.config  # a training folder loads too
+
+
+class _Exploit:
+    def __reduce__(self):
+        return (os.system, (f"touch {self.marker}",))
+
+
+def test_crafted_pickle_checkpoint_cannot_run_code(tmp_path):
+    marker = tmp_path / "pwned"
+    _Exploit.marker = str(marker)
+    bad = tmp_path / "evil.pt"
+    with open(bad, "wb") as f:
+        pickle.dump({"meta": "{}", "state_dict": {"w": _Exploit()}}, f, protocol=2)
+    with pytest.raises(BadInput, match="safely"):
+        load_model(bad)
+    assert not marker.exists()
+    # a zip-format torch file carrying the object is refused the same way
+    bad2 = tmp_path / "evil2.pt"
+    torch.save({"meta": "{}", "state_dict": {"w": _Exploit()}}, bad2)
+    with pytest.raises(BadInput, match="safely"):
+        load_model(bad2)
+    assert not marker.exists()
+
+
+def test_bad_model_files(tmp_path):
+    net, body = _net()
+    with pytest.raises(BadInput, match="does not exist"):
+        load_model(tmp_path / "nothing.safetensors")
+    path = save_model(tmp_path / "m.safetensors", net, (body, body))
+    # another body model than the one trained with
+    other = BodyModel(dataclasses.replace(toy_body_arrays(), v_template=toy_body_arrays().v_template * 1.1))
+    with pytest.raises(BadInput, match="not the one this model was trained with"):
+        load_model(path, bodies=(other, other))
+    # truncated weights
+    blob = path.read_bytes()
+    (tmp_path / "t.safetensors").write_bytes(blob[: len(blob) // 2])
+    (tmp_path / "t.json").write_text((tmp_path / "m.json").read_text())
+    with pytest.raises(BadInput, match="safetensors"):
+        load_model(tmp_path / "t.safetensors")
+    # metadata of another kind of file
+    (tmp_path / "m.json").write_text(json.dumps({"format": "something else"}))
+    with pytest.raises(BadInput, match="not a"):
+        load_model(path)
+    (tmp_path / "m.json").write_text("{not json")
+    with pytest.raises(BadInput, match="JSON"):
+        load_model(path)
+    (tmp_path / "x.npy").write_bytes(b"")
+    with pytest.raises(BadInput, match="expected"):
+        load_model(tmp_path / "x.npy")

@@ -1,0 +1,89 @@
+import csv
+import json
+
+import pytest
+import torch
+
+import pressurepose.net.train as train_mod
+from pressurepose.errors import BadInput
+from pressurepose.net.checkpoint import load_model
+from pressurepose.net.losses import joint_error, loss_l1
+from pressurepose.net.pmr import MatGrid
+from pressurepose.net.train import TrainConfig, as_training_data, train
+from tests.net.synth import toy_body, toy_dataset
+
+torch.set_num_threads(1)
+GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)  # 2 x 1 m; CNN input 32 x 32
+
+
+def test_overfits_a_tiny_dataset(tmp_path):
+    data = toy_dataset(8, seed=0, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=120, epochs_mod2=12, batch_size=8, lr=1e-3, lr_mod2=1e-4, weight_decay=0.0, noise=False,
+                      dropout=0.0, save_every=10 ** 6)
+    result = train(data, tmp_path, cfg, bodies=(body, body), grid=GRID)
+    h1 = [r for r in result.history if r["stage"] == 1]
+    h2 = [r for r in result.history if r["stage"] == 2]
+    assert h1[0]["train_loss"] > 1.0
+    net, meta = load_model(result.model_path)
+    d = as_training_data(data, GRID)
+    with torch.no_grad():
+        out1, out2 = net(d["pressure"], d["gender"])
+        l1, _ = loss_l1(out1, d["joints"], d["betas"])
+    assert float(l1) < 0.06  # from > 1: near zero
+    assert float(joint_error(out1.joints, d["joints"]).max()) < 0.012  # every sample within 1.2 cm
+    assert h2[-1]["train_loss"] < h2[0]["train_loss"]  # Mod2 (L2) improves on Mod1's estimate
+    assert float(joint_error(out2.joints, d["joints"]).mean()) < 0.012
+    rows = list(csv.DictReader(open(tmp_path / "log.csv")))
+    assert len(rows) == 132 and rows[0]["stage"] == "1" and rows[-1]["stage"] == "2"
+    assert meta["loss_scales"]["joints_m"] == 0.17528 and meta["train"]["lr"] == 1e-3
+
+
+def test_interrupted_run_resumes_to_the_same_result(tmp_path, monkeypatch):
+    data = toy_dataset(6, seed=1, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=2, batch_size=4, lr=1e-4, val_fraction=0.34)
+    full = train(data, tmp_path / "full", cfg, bodies=(body, body), grid=GRID)
+
+    real_save, calls = train_mod._save_state, []
+
+    def save_then_die(*args, **kwargs):
+        real_save(*args, **kwargs)
+        calls.append(1)
+        if len(calls) == 3:  # after Mod2's first epoch
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_mod, "_save_state", save_then_die)
+    with pytest.raises(KeyboardInterrupt):
+        train(data, tmp_path / "cut", cfg, bodies=(body, body), grid=GRID)
+    monkeypatch.setattr(train_mod, "_save_state", real_save)
+    resumed = train(data, tmp_path / "cut", cfg, bodies=(body, body), grid=GRID)
+    a, _ = load_model(full.model_path)
+    b, _ = load_model(resumed.model_path)
+    for (ka, va), (kb, vb) in zip(a.state_dict().items(), b.state_dict().items()):
+        assert ka == kb and torch.equal(va, vb), ka
+    assert [r["train_loss"] for r in resumed.history] == [r["train_loss"] for r in full.history]
+    assert len(list(csv.DictReader(open(tmp_path / "cut" / "log.csv")))) == 4
+    # a different config in the same folder is refused, nothing overwritten
+    before = (tmp_path / "cut" / "state.json").read_text()
+    with pytest.raises(BadInput, match="different config"):
+        train(data, tmp_path / "cut", TrainConfig(epochs_mod1=2, epochs_mod2=2, batch_size=4, lr=2e-4),
+              bodies=(body, body), grid=GRID)
+    assert (tmp_path / "cut" / "state.json").read_text() == before
+    assert json.loads(before)["stage"] == 2
+
+
+def test_bad_training_data_is_refused(tmp_path):
+    data = toy_dataset(2, grid=GRID)
+    body = toy_body()
+    for key, value, match in [("pressure", torch.zeros(2, 15, 16), "shape"),
+                              ("pressure", torch.full((2, 16, 16), -1.0), "negative"),
+                              ("joints", torch.full((2, 24, 3), float("nan")), "NaN"),
+                              ("gender", ["f", "x"], "gender")]:
+        bad = dict(data, **{key: value})
+        with pytest.raises(BadInput, match=match):
+            train(bad, tmp_path, TrainConfig(epochs_mod1=0, epochs_mod2=0), bodies=(body, body), grid=GRID)
+    with pytest.raises(BadInput, match="lacks"):
+        train({k: v for k, v in data.items() if k != "betas"}, tmp_path, bodies=(body, body), grid=GRID)
+    with pytest.raises(BadInput):
+        TrainConfig(loss_sigmas="other")
