@@ -9,7 +9,9 @@ dropped silently.
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import queue as queue_module
+import threading
 import time
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -85,9 +87,21 @@ def _run_here(units, retries, on_result, on_progress, on_failure) -> int:
 _EVENTS = None  # the worker's progress queue (set by _init_worker)
 
 
-def _init_worker(events) -> None:
+def _init_worker(events, coordinator: int) -> None:
+    """Worker set-up: the progress queue, and a watchdog that ends this worker when the coordinating
+    process is gone (killed with -9, say), so no orphan keeps running or waiting."""
     global _EVENTS
     _EVENTS = events
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            try:
+                os.kill(coordinator, 0)
+            except ProcessLookupError:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="coordinator-watchdog").start()
 
 
 def _run_unit_in_worker(unit: WorkUnit) -> UnitResult:
@@ -109,9 +123,20 @@ def _run_unit_in_worker(unit: WorkUnit) -> UnitResult:
     return result
 
 
+def _context():
+    """'forkserver' where available: workers fork from a clean server process that has imported the
+    pipeline once (fast start, and safe with threads such as torch's or MuJoCo's in this process);
+    'spawn' elsewhere."""
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(["pressurepose.data.pipeline", "pressurepose.data.executors"])
+        return ctx
+    return mp.get_context("spawn")
+
+
 def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> int:
     tracker = _Retries(retries, on_failure)
-    ctx = mp.get_context("spawn")  # no fork: safe with threads (torch, MuJoCo) in the parent
+    ctx = _context()
     events = ctx.Queue()
     todo = deque(units)
 
@@ -125,7 +150,8 @@ def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> in
                 on_progress(shard, accepted, rejected)
 
     def new_pool() -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker, initargs=(events,))
+        return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                                   initargs=(events, os.getpid()))
 
     pool = new_pool()
     running: dict = {}
@@ -158,8 +184,10 @@ def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> in
                 pool.shutdown(wait=False, cancel_futures=True)
                 pool = new_pool()
         drain()
-    finally:
+    except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
     return tracker.total
 
 

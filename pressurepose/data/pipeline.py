@@ -57,6 +57,7 @@ class UnitResult:
     attempts: int
     rejections: dict
     seconds: float
+    cpu_seconds: float  # CPU time of the process that made it
 
 
 # progress callback: (shard, accepted, rejected) increments, called after every attempt
@@ -97,7 +98,7 @@ def make_sample(config: GenerationConfig, index: int, producer=None,
 
 def run_unit(unit: WorkUnit, progress: Progress | None = None) -> UnitResult:
     """Produce one shard and return its bytes (pure: touches no files)."""
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     producer = resolve_producer(unit.config.producer)
     samples, attempts, rejections = [], [], {}
     for i in unit.indices:
@@ -108,7 +109,7 @@ def run_unit(unit: WorkUnit, progress: Progress | None = None) -> UnitResult:
             rejections[cause] = rejections.get(cause, 0) + n
     data = encode_shard(unit.config, unit.shard, samples, attempts, rejections)
     return UnitResult(unit.shard, data, len(samples), len(samples) + sum(rejections.values()),
-                      rejections, time.perf_counter() - t0)
+                      rejections, time.perf_counter() - t0, time.process_time() - cpu0)
 
 
 # --------------------------------------------------------------------------- resuming
@@ -206,6 +207,7 @@ class RunReport:
     skipped: int       # shards already finished
     seconds: float
     retries: int
+    unit_cpu_seconds: float  # CPU time spent making this run's shards, summed over workers
 
 
 def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray_address: str | None = None,
@@ -233,19 +235,20 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
             raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")
         todo = [k for k in todo if k in set(only_shards)]
     skipped = config.num_shards - len(todo)
+    unit_cpu = []
     bar = ProgressBar(total=config.count, initial=manifest.samples_done, enabled=progress,
                       desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
     try:
         retried = run_units([WorkUnit(config, k) for k in todo], workers=workers, ray_address=ray_address,
                             retries=retries, on_result=lambda r: (_commit_result(out, manifest, r),
-                                                                  bar.unit_done(r)),
+                                                                  bar.unit_done(r), unit_cpu.append(r.cpu_seconds)),
                             on_progress=bar.attempt, on_failure=bar.unit_failed)
     finally:
         bar.close()
     if len(manifest.shards) == config.num_shards and not manifest.complete:
         manifest.complete = True
         manifest.save(out)
-    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried)
+    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried, sum(unit_cpu))
 
 
 def format_failure(unit: WorkUnit, exc: BaseException) -> str:
