@@ -13,11 +13,15 @@ import sys
 
 # verb -> (module, function stem, one-line help)
 VERBS: dict[str, tuple[str, str, str]] = {
+    "convert": ("pressurepose.data.commands", "convert", "convert the official PressurePose release to our datasets, or back"),
     "demo": ("pressurepose.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
     "calibrate": ("pressurepose.sim.commands", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
     "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
     "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
     "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
+    "train": ("pressurepose.net.commands", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
+    "infer": ("pressurepose.net.commands", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
+    "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
 }
 
 

@@ -140,3 +140,52 @@ def run_info(args: argparse.Namespace) -> int:
     png = draw_summary(summary, args.png or Path(args.dir) / "info.png")
     print(f"picture: {png}")
     return 0
+
+
+def add_convert_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = (
+        "Convert the official PressurePose release to this project's format, or back. SRC may be a "
+        "synthetic .p file or a folder of them (each becomes OUT/<file stem>, a dataset), or a real-data "
+        "participant folder with participant_info_red.p (becomes OUT/<participant>.h5: pressure images, "
+        "body facts, point clouds). With --to-pressurepose, SRC is one of our datasets (BodiTrak 64 x 27) "
+        "and OUT a .p file in the release format. Pickles are read with an unpickler that only builds "
+        "arrays. Images are mirrored and coordinates rotated into our bed frame (see "
+        "pressurepose/data/readers/pressurepose_pickle.py).")
+    p.add_argument("src", help="release file or folder, or (with --to-pressurepose) a dataset directory")
+    p.add_argument("--out", required=True, help="output directory (or .p file with --to-pressurepose)")
+    p.add_argument("--to-pressurepose", action="store_true", help="export our dataset to the release format")
+    p.add_argument("--partition", help="override the partition read from the file name")
+    p.add_argument("--gender", help="override the gender read from the file name (f or m)")
+    p.add_argument("--limbs-on-bed", choices=("yes", "no"), help="override the 'plo' flag read from the file name")
+    p.add_argument("--body", help="body model (f, m, or an SMPL-format file) used to express the root "
+                                  "position as transl; default: the shipped model of the sample's gender")
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    from pressurepose.body import BodyModel
+    from pressurepose.data.dataset import DatasetReader
+    from pressurepose.data.readers import pressurepose_pickle as pp
+
+    src, out = Path(args.src), Path(args.out)
+    if args.to_pressurepose:
+        samples = list(DatasetReader(src))
+        pp.export_synthetic(samples, out)
+        print(f"wrote {len(samples)} samples to {out}")
+        return 0
+    if src.is_dir() and (src / "participant_info_red.p").exists():
+        out.mkdir(parents=True, exist_ok=True)
+        part = pp.read_real_participant(src)
+        path = pp.save_real_hdf5(part, out / f"{part.name}.h5")
+        print(f"{src}: {', '.join(f'{k} {len(r.pressure)}' for k, r in part.recordings.items())} images -> {path}")
+        return 0
+    files = sorted(src.glob("*.p")) if src.is_dir() else [src]
+    if not files:
+        raise BadInput(f"{src} holds no .p files and is not a participant folder")
+    body = BodyModel(args.body) if args.body else None
+    plo = None if args.limbs_on_bed is None else args.limbs_on_bed == "yes"
+    for f in files:
+        m = pp.convert_synthetic(f, out / f.stem if len(files) > 1 or src.is_dir() else out, body=body,
+                                 partition=args.partition, gender=args.gender, limbs_on_bed=plo)
+        c = m.config
+        print(f"{f}: {c.count} samples ({c.partition}, {c.gender}{', limbs on bed' if c.limbs_on_bed else ''})")
+    return 0

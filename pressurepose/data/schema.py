@@ -39,17 +39,12 @@ from typing import Any
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
 from pressurepose.sim.bed import get_mat
 
-# Names follow the paper's appendix A.7 table (REFERENCE section 2).
-PARTITIONS: tuple[str, ...] = (
-    "general",                # roll U(-pi, pi): supine, lateral, prone and between
-    "general_supine",         # roll 0
-    "hands_behind_head",      # supine, hands behind the head
-    "prone_hands_up",         # roll pi, hands above the shoulders
-    "supine_crossed_legs",    # supine, feet crossed
-    "supine_straight_limbs",  # supine, knees and elbows straight
-)
+# The paper's partitions (appendix A.7; defined in pressurepose.pose.partitions): general,
+# general_supine, hands_behind_head, prone_hands_up, supine_crossed_legs, supine_straight_limbs.
+PARTITIONS: tuple[str, ...] = tuple(_POSE_PARTITIONS)
 GENDERS: tuple[str, ...] = ("f", "m")
 NUM_BETAS = 10
 NUM_JOINTS = 24

@@ -181,3 +181,23 @@ def test_resample_identity_known_values_and_loss_outside():
         resample_pressure(np.zeros((5, 5)), m, m)
     with pytest.raises(BadInput, match="negative"):
         resample_pressure(-np.ones((56, 40)), m, m)
+
+
+def test_convert_verb_both_ways(tmp_path, capsys):
+    from pressurepose.body.smpl_io import save_body_arrays
+    from pressurepose.cli import main
+
+    save_body_arrays(tmp_path / "toy.npz", toy_body_arrays())
+    src = tmp_path / "release"
+    src.mkdir()
+    _release_file(src / "train_roll0_xl_f_lay_set2both_3.p", seed=6)
+    _release_file(src / "train_roll0_sl_m_lay_set2pa1_3.p", seed=7)
+    assert main(["convert", str(src), "--out", str(tmp_path / "ours"), "--body", str(tmp_path / "toy.npz")]) == 0
+    r = DatasetReader(tmp_path / "ours")
+    assert len(r) == 6 and {d.config.partition for d in r.datasets} == {"supine_crossed_legs", "supine_straight_limbs"}
+    assert main(["convert", str(tmp_path / "ours" / "train_roll0_xl_f_lay_set2both_3"), "--to-pressurepose",
+                 "--out", str(tmp_path / "back.p")]) == 0
+    assert len(pp.load_pickle(tmp_path / "back.p")["images"]) == 3
+    assert main(["convert", str(src / "train_roll0_xl_f_lay_set2both_3.p"), "--out", str(tmp_path / "ours"),
+                 "--body", str(tmp_path / "toy.npz")]) == 2
+    assert "not empty" in capsys.readouterr().err

@@ -241,6 +241,9 @@ def convert_synthetic(path: str | Path, out: str | Path, *, body=None, partition
     """
     from pressurepose.body import BodyModel
 
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise BadInput(f"{out} is not empty; nothing was written (choose a new directory)")
     guess = infer_labels(path)
     partition = partition or guess.get("partition")
     gender = gender or guess.get("gender")
@@ -255,7 +258,7 @@ def convert_synthetic(path: str | Path, out: str | Path, *, body=None, partition
     samples = synthetic_to_samples(raw, gender=gender, partition=partition, body=body)
     config = GenerationConfig(partition=partition, gender=gender, limbs_on_bed=plo, count=len(samples),
                               shard_size=shard_size, producer=f"converted:pressurepose:{Path(path).name}")
-    return write_dataset(Path(out), config, samples)
+    return write_dataset(out, config, samples)
 
 
 def samples_to_synthetic(samples: Sequence[Sample]) -> dict[str, list]:
