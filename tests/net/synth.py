@@ -53,3 +53,27 @@ def toy_dataset(n: int = 8, seed: int = 0, grid: MatGrid = GRID) -> dict[str, to
     return {"pressure": (0.5 * maps.q).float(), "gender": torch.tensor(rng.integers(0, 2, n)),
             "betas": torch.tensor(betas).float(), "pose": torch.tensor(pose).float(),
             "transl": torch.tensor(transl).float(), "joints": torch.tensor(joints).float()}
+
+
+BODITRAK = MatGrid(rows=64, cols=27, pitch_row_m=0.0286, pitch_col_m=0.0286)
+
+
+def write_toy_dataset(out, n: int = 4, seed: int = 0):
+    """A complete on-disk dataset (pressurepose.data format, BodiTrak mat) of toy-body samples with
+    two partitions and both genders. Returns the in-memory data mapping too."""
+    from pressurepose.data.schema import GenerationConfig, Sample
+    from pressurepose.data.store import write_dataset
+
+    data = toy_dataset(n, seed=seed, grid=BODITRAK)
+    data["gender"] = torch.arange(n) % 2
+    depth = pmr(torch.tensor(toy_body().forward(data["betas"].numpy(), data["pose"].numpy(),
+                                                 data["transl"].numpy())[0]), BODITRAK).depth.numpy()
+    parts = ("general_supine", "supine_straight_limbs")
+    samples = [Sample(pressure=data["pressure"][i].numpy(), force=data["pressure"][i].numpy() * 0.1,
+                      depth=depth[i], contact=depth[i] < 0, betas=data["betas"][i].numpy(),
+                      pose=data["pose"][i].numpy(), transl=data["transl"][i].numpy(),
+                      joints=data["joints"][i].numpy(), gender="fm"[int(data["gender"][i])], mass=60.0,
+                      height=1.7, partition=parts[i % 2], index=i) for i in range(n)]
+    config = GenerationConfig(partition="general_supine", gender="f", count=n, seed=seed, shard_size=3)
+    write_dataset(out, config, samples)
+    return data

@@ -1,0 +1,96 @@
+"""The accuracy table (paper Table 2): a trained PressureNet and the mean-pose baseline on a dataset,
+MPJPE and v2v in cm, overall, by partition and by gender."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
+from pressurepose.net.model import PressureNet
+from pressurepose.net.outputs import BodyParams
+
+GENDER_NAMES = ("f", "m")
+ROWS = (("mod2", "PressureNet (Mod1 + Mod2)"), ("mod1", "Mod1 alone"), ("baseline", "mean-pose baseline (BL)"))
+
+
+def _params(betas, pose, transl) -> BodyParams:
+    b = betas.shape[0]
+    return BodyParams(unconstrained=betas.new_zeros(b, 88), betas=betas, transl=transl,
+                      root_euler=betas.new_zeros(b, 3), global_orient=pose[:, :3], body_pose=pose[:, 3:])
+
+
+def _layer_forward(net: PressureNet, gender: int):
+    def forward(betas, pose, transl):
+        t = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32, device=device)  # noqa: E731
+        g = torch.full((np.shape(betas)[0],), gender, dtype=torch.long, device=device)
+        verts, joints = net.body(_params(t(betas), t(pose), t(transl)), g)
+        return verts.cpu().numpy(), joints.cpu().numpy()
+
+    device = next(net.parameters()).device
+    return forward
+
+
+@torch.no_grad()
+def evaluate(net: PressureNet, data, batch_size: int = 64) -> dict:
+    """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data`` (a
+    :class:`pressurepose.net.data.LoadedData`), plus the summary (:func:`summarise`).
+
+    Vertex errors compare with the true bodies posed by the network's own body layer (same
+    topology); joint errors compare with the dataset's joints.
+    """
+    net.eval()
+    device = next(net.parameters()).device
+    t = data.tensors
+    n = len(data)
+    base = {g: baseline_body(_layer_forward(net, g), net.config.grid) for g in (0, 1)}
+    base_out = {g: _layer_forward(net, g)(*(a[None] for a in base[g])) for g in (0, 1)}
+    errs = {f"{row}_{m}": np.zeros(n) for row, _ in ROWS for m in ("mpjpe", "v2v")}
+    for s in range(0, n, batch_size):
+        sl = slice(s, min(s + batch_size, n))
+        gender = t["gender"][sl].to(device)
+        out1, out2 = net(t["pressure"][sl].to(device), gender)
+        true_verts, _ = net.body(_params(t["betas"][sl].to(device), t["pose"][sl].to(device),
+                                         t["transl"][sl].to(device)), gender)
+        tv = true_verts.cpu().numpy()
+        tj = t["joints"][sl].numpy()
+        for row, out in (("mod2", out2), ("mod1", out1)):
+            errs[f"{row}_mpjpe"][sl] = mpjpe(out.joints.cpu().numpy(), tj)
+            errs[f"{row}_v2v"][sl] = v2v(out.vertices.cpu().numpy(), tv)
+        g = gender.cpu().numpy()
+        bv = np.stack([base_out[int(x)][0][0] for x in g])
+        bj = np.stack([base_out[int(x)][1][0] for x in g])
+        errs["baseline_mpjpe"][sl] = mpjpe(bj, tj)
+        errs["baseline_v2v"][sl] = v2v(bv, tv)
+    return {"errors": errs, "summary": summarise(errs, t["gender"].numpy(), t["partition"].numpy(),
+                                                 data.partition_names)}
+
+
+def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_names) -> dict:
+    """{group: {row: {"mpjpe_cm", "v2v_cm"}, "count"}} for "all", each partition and each gender."""
+    groups = {"all": np.ones(len(gender), bool)}
+    for p in np.unique(partition):
+        groups[f"partition:{partition_names[int(p)]}"] = partition == p
+    for g in np.unique(gender):
+        groups[f"gender:{GENDER_NAMES[int(g)]}"] = gender == g
+    out = {}
+    for name, sel in groups.items():
+        out[name] = {"count": int(sel.sum())}
+        for row, _ in ROWS:
+            out[name][row] = {m + "_cm": 100 * float(np.mean(errs[f"{row}_{m}"][sel])) for m in ("mpjpe", "v2v")}
+    return out
+
+
+def format_table(summary: dict) -> str:
+    """Markdown tables like the paper's Table 2 (overall), then by partition and gender."""
+    lines = ["| network | MPJPE (cm) | v2v (cm) |", "|---|---|---|"]
+    for row, label in ROWS:
+        r = summary["all"][row]
+        lines.append(f"| {label} | {r['mpjpe_cm']:.2f} | {r['v2v_cm']:.2f} |")
+    lines += ["", "| group | n | MPJPE (cm) | v2v (cm) | BL MPJPE (cm) | BL v2v (cm) |", "|---|---|---|---|---|---|"]
+    for name, s in summary.items():
+        if name == "all":
+            continue
+        lines.append(f"| {name.split(':', 1)[1]} | {s['count']} | {s['mod2']['mpjpe_cm']:.2f} | "
+                     f"{s['mod2']['v2v_cm']:.2f} | {s['baseline']['mpjpe_cm']:.2f} | {s['baseline']['v2v_cm']:.2f} |")
+    return "\n".join(lines)

@@ -1,0 +1,89 @@
+"""CLI verbs ``pressurepose train`` and ``pressurepose infer``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_train_arguments(p: argparse.ArgumentParser) -> None:
+    from pressurepose.net.train import TrainConfig
+
+    d = TrainConfig()
+    p.description = ("Train PressureNet (Mod1 with loss L1, then Mod2 with L2) on a generated dataset. "
+                     "Defaults are the paper's. Uses a CUDA GPU with mixed precision when there is one. "
+                     "Rerunning the same command resumes from the last saved epoch.")
+    p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
+    p.add_argument("--out", required=True, help="run folder: log.csv, tb/, state.*, model.safetensors + model.json")
+    p.add_argument("--epochs-mod1", type=int, default=d.epochs_mod1, help=f"epochs for Mod1 (default {d.epochs_mod1})")
+    p.add_argument("--epochs-mod2", type=int, default=d.epochs_mod2, help=f"epochs for Mod2 (default {d.epochs_mod2})")
+    p.add_argument("--batch-size", type=int, default=d.batch_size, help=f"default {d.batch_size}")
+    p.add_argument("--lr", type=float, default=d.lr, help=f"Adam learning rate (default {d.lr})")
+    p.add_argument("--lr-mod2", type=float, default=None, help="Mod2's learning rate (default: --lr)")
+    p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"default {d.weight_decay}")
+    p.add_argument("--no-noise", action="store_true", help="train without the noise model (ablation)")
+    p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (ablation)")
+    p.add_argument("--no-edges-contact", action="store_true", help="drop the Sobel and contact channels (ablation)")
+    p.add_argument("--gender-input", action="store_true", help="also feed the gender flag to the CNN (not in the paper)")
+    p.add_argument("--loss-sigmas", choices=("paper", "data"), default=d.loss_sigmas,
+                   help="sigma_s and sigma_beta: the paper's values or from the training set (default paper)")
+    p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05)")
+    p.add_argument("--seed", type=int, default=d.seed, help="seed of the split, shuffling, noise, dropout and init")
+    p.add_argument("--device", default=d.device, help="auto (CUDA if available), cpu, cuda, cuda:1 ...")
+    p.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
+    p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
+    p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
+    p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
+    p.add_argument("--male", default="male", help="male body model: 'male' (shipped) or an SMPL-format file")
+
+
+def run_train(args) -> int:
+    from pressurepose.net.checkpoint import body_model
+    from pressurepose.net.data import load_dataset
+    from pressurepose.net.train import TrainConfig, train
+
+    data = load_dataset(args.data, limit=args.limit)
+    config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
+                         lr=args.lr, lr_mod2=args.lr_mod2, weight_decay=args.weight_decay, noise=not args.no_noise,
+                         use_pmr=not args.no_pmr, edges_contact=not args.no_edges_contact,
+                         gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
+                         seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every)
+    female = body_model(args.female)
+    male = female if args.male == args.female else body_model(args.male)
+    tensors = {k: v for k, v in data.tensors.items() if k != "partition"}
+    print(f"training on {len(data)} samples ({data.mat}, {data.grid.rows} x {data.grid.cols}) into {args.out}")
+    result = train(tensors, args.out, config, bodies=(female, male), grid=data.grid, progress=True)
+    last = result.history[-1] if result.history else {}
+    print(f"model: {result.model_path}"
+          + (f"  (last epoch: loss {last['train_loss']:.4f}" + (f", val MPJPE {last['val_mpjpe_cm']:.2f} cm"
+                                                               if "val_mpjpe_cm" in last else "") + ")" if last else ""))
+    return 0
+
+
+def add_infer_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
+                     "betas, pose, joints (JSON and NPZ), meshes and pictures.")
+    p.add_argument("pressure_file", metavar="PRESSURE_FILE",
+                   help="pressure image(s), mmHg: .npy ((R, C) or (B, R, C)), .csv (one image) or HDF5 (.h5)")
+    p.add_argument("--gender", required=True, help="f or m (one for all images, or comma-separated per image)")
+    p.add_argument("--model", default=None, help="trained model (.safetensors with its .json, .pt, or a run folder); "
+                                                "default: the shipped model")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")
+    p.add_argument("--mesh-format", choices=("ply", "obj"), default="ply", help="mesh file format (default ply)")
+    p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
+
+
+def run_infer(args) -> int:
+    from pressurepose.net.infer import estimate, load_pressure
+
+    pressure = load_pressure(args.pressure_file, key=args.key)
+    gender = args.gender.split(",") if "," in args.gender else args.gender
+    est = estimate(pressure, gender, model=args.model)
+    paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
+    print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
+    for i in range(min(len(est), 5)):
+        root = est.joints[i, 0]
+        print(f"  image {i}: pelvis at ({root[0]:.3f}, {root[1]:.3f}, {root[2]:.3f}) m, betas[:3] "
+              f"{', '.join(f'{b:+.2f}' for b in est.betas[i, :3])}")
+    return 0

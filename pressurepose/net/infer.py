@@ -1,0 +1,227 @@
+"""Running a trained PressureNet: ``estimate(pressure, gender) -> Estimate`` and its files.
+
+>>> from pressurepose.net.infer import estimate
+>>> est = estimate(pressure_image, "f", model="runs/x/model.safetensors")   # (64, 27) mmHg
+>>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
+>>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply, estimate_000.png
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import torch
+
+from pressurepose.errors import BadInput
+from pressurepose.net.model import GENDER_CODES, PressureNet
+
+DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.safetensors"
+
+
+@dataclass
+class Estimate:
+    """PressureNet's estimate for a batch of B images (numpy, bed frame, metres and radians).
+
+    betas (B, 10); pose (B, 72) SMPL axis-angle (root first); transl (B, 3); joints (B, 24, 3);
+    vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
+    reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
+    gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference.
+    """
+
+    betas: np.ndarray
+    pose: np.ndarray
+    transl: np.ndarray
+    joints: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+    pressure: np.ndarray
+    q: np.ndarray
+    contact: np.ndarray
+    gender: list[str]
+    mod1_joints: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.betas.shape[0])
+
+    def to_records(self) -> list[dict]:
+        """One JSON-ready dict per image."""
+        return [{"gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
+                 "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
+
+    def save(self, out_dir: str | Path, mesh_format: str = "ply", max_figures: int = 16) -> list[Path]:
+        """Write estimate.json, estimate.npz, one mesh per image (``mesh_000.ply`` or ``.obj``) and a
+        PNG for each of the first ``max_figures`` images. Returns the paths written."""
+        import trimesh
+
+        if mesh_format not in ("ply", "obj"):
+            raise BadInput(f"mesh format {mesh_format!r}: expected ply or obj")
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = [out / "estimate.json", out / "estimate.npz"]
+        paths[0].write_text(json.dumps({"units": "metres, radians (SMPL axis-angle, root first); bed frame",
+                                        "estimates": self.to_records()}, indent=1))
+        np.savez_compressed(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
+                            vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
+                            gender=np.array(self.gender))
+        for i in range(len(self)):
+            p = out / f"mesh_{i:03d}.{mesh_format}"
+            trimesh.Trimesh(self.vertices[i], self.faces, process=False).export(p)
+            paths.append(p)
+        for i in range(min(len(self), max_figures)):
+            p = out / f"estimate_{i:03d}.png"
+            figure(self, i).savefig(p, dpi=110)
+            paths.append(p)
+        return paths
+
+
+def figure(est: Estimate, i: int = 0):
+    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from above."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pressurepose.viz.mesh import draw_mesh
+
+    fig, axes = plt.subplots(1, 3, figsize=(10, 6))
+    for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
+                                 (axes[1], est.q[i], "reconstructed map Q (PMR)", "mm sink")):
+        im = ax.imshow(img, cmap="magma", interpolation="nearest")
+        ax.set_title(title)
+        fig.colorbar(im, ax=ax, fraction=0.046, label=unit)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    ax = axes[2]
+    draw_mesh(ax, est.vertices[i], est.faces, view="top")
+    j = est.joints[i]
+    ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red")
+    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'})")
+    ax.set_xlabel("x across the bed (m)")
+    ax.set_ylabel("-y along the bed (m)")
+    fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------------------- input
+def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
+    """Pressure images from a file: ``.npy`` ((R, C) or (B, R, C)), ``.csv`` (one image, R rows of
+    C comma-separated values) or HDF5 (``.h5`` / ``.hdf5``, dataset ``key``). BadInput otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise BadInput(f"pressure file {str(path)!r} does not exist")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            arr = np.load(path, allow_pickle=False)
+        elif suffix == ".csv":
+            arr = np.loadtxt(path, delimiter=",", ndmin=2)
+        elif suffix in (".h5", ".hdf5"):
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                if key not in f or not isinstance(f[key], h5py.Dataset):
+                    raise BadInput(f"HDF5 file {str(path)!r} has no dataset {key!r} (has: {', '.join(f.keys())})")
+                arr = f[key][()]
+        else:
+            raise BadInput(f"pressure file {str(path)!r}: expected .npy, .csv, .h5 or .hdf5")
+    except BadInput:
+        raise
+    except (ValueError, OSError) as exc:
+        raise BadInput(f"pressure file {str(path)!r} could not be read ({exc})") from None
+    if arr.dtype.kind not in "fiub":
+        raise BadInput(f"pressure file {str(path)!r} holds {arr.dtype} values; expected numbers")
+    return np.asarray(arr, dtype=np.float32)
+
+
+def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> np.ndarray:
+    """(B, R, C) float32 from one image (R, C) or a batch; BadInput for a wrong shape, NaN,
+    infinite or negative values."""
+    arr = np.asarray(pressure.detach().cpu() if isinstance(pressure, torch.Tensor) else pressure)
+    if arr.dtype.kind not in "fiub":
+        raise BadInput(f"{what} has dtype {arr.dtype}; expected numbers")
+    arr = arr.astype(np.float32)
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[1:] != tuple(shape) or arr.shape[0] == 0:
+        raise BadInput(f"{what} has shape {np.shape(pressure)}; this model's mat is {shape[0]} x {shape[1]} "
+                       f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]}))")
+    if not np.all(np.isfinite(arr)):
+        raise BadInput(f"{what} contains NaN or infinite values")
+    if np.any(arr < 0):
+        raise BadInput(f"{what} has negative values (min {arr.min():.3g}); pressures must be >= 0")
+    return arr
+
+
+def _genders(gender, n: int) -> list[str]:
+    items = [gender] * n if isinstance(gender, (str, int, np.integer)) else list(gender)
+    if len(items) != n:
+        raise BadInput(f"{len(items)} genders for {n} pressure images")
+    out = []
+    for g in items:
+        key = str(g).strip().lower()
+        if key not in GENDER_CODES and key not in ("0", "1"):
+            raise BadInput(f"gender {g!r} is not known; expected f or m")
+        out.append("f" if key in ("0", "f", "female") else "m")
+    return out
+
+
+@lru_cache(maxsize=4)
+def _cached_model(path: str, mtime: float) -> PressureNet:
+    from pressurepose.net.checkpoint import load_model
+
+    return load_model(path)[0]
+
+
+def resolve_model(model=None) -> PressureNet:
+    """A PressureNet from None (the shipped model), a path, or a PressureNet (returned as is)."""
+    if isinstance(model, PressureNet):
+        return model
+    path = DEFAULT_MODEL if model is None else Path(model)
+    if model is None and not path.is_file():
+        raise BadInput("no trained PressureNet ships with this installation yet; pass a model file "
+                       "(--model / model=...) made by `pressurepose train`")
+    if path.is_dir():
+        path = path / "model.safetensors"
+    if not path.is_file():
+        raise BadInput(f"model file {str(path)!r} does not exist")
+    return _cached_model(str(path.resolve()), path.stat().st_mtime)
+
+
+@torch.no_grad()
+def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64):
+    """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch."""
+    device = next(net.parameters()).device
+    net.eval()
+    g = torch.tensor([GENDER_CODES[x] for x in genders], dtype=torch.long)
+    results = []
+    for s in range(0, len(pressure), batch_size):
+        p = torch.from_numpy(pressure[s:s + batch_size]).to(device)
+        results.append(net(p, g[s:s + batch_size].to(device)))
+    return results
+
+
+def estimate(pressure, gender, model=None, batch_size: int = 64) -> Estimate:
+    """Estimate body pose and shape from pressure images.
+
+    pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch).
+    gender: 'f' / 'm' (or female / male) for all images, or one per image.
+    model: None (the shipped model), a model path, or a loaded :class:`PressureNet`.
+    """
+    net = resolve_model(model)
+    arr = check_pressure(pressure, net.config.grid.shape)
+    genders = _genders(gender, len(arr))
+    parts = run_network(net, arr, genders, batch_size)
+
+    def cat(fn):
+        return torch.cat([fn(o1, o2).float().cpu() for o1, o2 in parts]).numpy()
+
+    return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
+                    transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
+                    vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
+                    pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
+                    gender=genders, mod1_joints=cat(lambda a, b: a.joints))

@@ -1,0 +1,71 @@
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from pressurepose.cli import main
+from pressurepose.errors import BadInput
+from pressurepose.eval.metrics import baseline_body, mpjpe
+from pressurepose.eval.report import evaluate, format_table
+from pressurepose.net.checkpoint import gendered_body, save_model
+from pressurepose.net.data import load_dataset
+from pressurepose.net.infer import estimate
+from pressurepose.net.model import NetConfig, PressureNet
+from pressurepose.net.outputs import OutputConfig
+from tests.net.synth import BODITRAK, toy_body, write_toy_dataset
+
+torch.set_num_threads(1)
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    root = tmp_path_factory.mktemp("eval")
+    data = write_toy_dataset(root / "data", n=4)
+    torch.manual_seed(0)
+    body = toy_body()
+    net = PressureNet(NetConfig(grid=BODITRAK, outputs=OutputConfig.default((0.4, 0.9, 0.1), (0.3, 0.3, 0.1))),
+                      gendered_body(body, body))
+    path = save_model(root / "model.safetensors", net, (body, body))
+    return root, data, path
+
+
+def test_dataset_adapter(setup):
+    root, data, _ = setup
+    loaded = load_dataset(root / "data")
+    assert len(loaded) == 4 and loaded.grid == BODITRAK and loaded.mat == "boditrak_bt3510"
+    assert torch.equal(loaded.tensors["gender"], data["gender"])
+    assert torch.allclose(loaded.tensors["joints"], data["joints"])
+    assert [loaded.partition_names[i] for i in loaded.tensors["partition"]] == [
+        "general_supine", "supine_straight_limbs"] * 2
+    with pytest.raises(BadInput):
+        load_dataset(root / "nothing")
+
+
+def test_evaluate_matches_direct_computation(setup):
+    root, data, path = setup
+    est = estimate(data["pressure"], ["fm"[int(g)] for g in data["gender"]], model=path)
+    from pressurepose.net.infer import resolve_model
+
+    result = evaluate(resolve_model(path), load_dataset(root / "data"), batch_size=3)
+    np.testing.assert_allclose(result["errors"]["mod2_mpjpe"], mpjpe(est.joints, data["joints"].numpy()), atol=1e-6)
+    body = toy_body()
+    b, p, t = baseline_body(body.forward, BODITRAK)
+    _, bj = body.forward(b, p, t)
+    np.testing.assert_allclose(result["errors"]["baseline_mpjpe"], mpjpe(np.repeat(bj, 4, 0), data["joints"].numpy()),
+                               atol=1e-5)
+    s = result["summary"]
+    assert s["all"]["count"] == 4 and s["gender:f"]["count"] + s["gender:m"]["count"] == 4
+    assert s["partition:general_supine"]["count"] == 2
+    table = format_table(s)
+    assert "mean-pose baseline" in table and "supine_straight_limbs" in table
+
+
+def test_evaluate_verb(setup, capsys):
+    root, _, path = setup
+    assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep")]) == 0
+    rep = json.loads((root / "rep" / "report.json").read_text())
+    assert rep["summary"]["all"]["count"] == 4
+    assert "| PressureNet (Mod1 + Mod2) |" in (root / "rep" / "report.md").read_text()
+    assert "MPJPE" in capsys.readouterr().out
+    assert main(["evaluate", "--model", str(root / "missing.pt"), "--data", str(root / "data")]) == 2

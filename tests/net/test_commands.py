@@ -1,0 +1,31 @@
+import csv
+import json
+
+import numpy as np
+import torch
+
+from pressurepose.cli import main
+from tests.net.synth import write_toy_dataset
+
+torch.set_num_threads(1)
+
+
+def test_train_then_infer_verbs(tmp_path, capsys):
+    data = write_toy_dataset(tmp_path / "data", n=4)
+    run = tmp_path / "run"
+    args = ["train", "--data", str(tmp_path / "data"), "--out", str(run), "--epochs-mod1", "1", "--epochs-mod2", "1",
+            "--batch-size", "4", "--val-fraction", "0.25", "--female", "toy", "--male", "toy", "--no-noise"]
+    assert main(args) == 0
+    assert (run / "model.safetensors").exists() and (run / "state.json").exists()
+    meta = json.loads((run / "model.json").read_text())
+    assert meta["bodies"]["male"]["spec"] == "toy" and meta["train"]["noise"] is False
+    rows = list(csv.DictReader(open(run / "log.csv")))
+    assert [r["stage"] for r in rows] == ["1", "2"] and float(rows[0]["val_mpjpe_cm"]) > 0
+    # the same command again finds the finished run and only rewrites the model
+    assert main(args) == 0
+    assert len(list(csv.DictReader(open(run / "log.csv")))) == 2
+    np.save(tmp_path / "p.npy", data["pressure"][:2].numpy())
+    assert main(["infer", str(tmp_path / "p.npy"), "--gender", "f", "--model", str(run), "--out",
+                 str(tmp_path / "est")]) == 0
+    assert (tmp_path / "est" / "mesh_001.ply").exists()
+    assert "model:" in capsys.readouterr().out

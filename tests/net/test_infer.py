@@ -1,0 +1,93 @@
+import json
+
+import h5py
+import numpy as np
+import pytest
+import torch
+
+from pressurepose.cli import main
+from pressurepose.errors import BadInput
+from pressurepose.net.checkpoint import gendered_body, save_model
+from pressurepose.net.infer import estimate, load_pressure
+from pressurepose.net.model import NetConfig, PressureNet
+from pressurepose.net.outputs import OutputConfig
+from pressurepose.net.pmr import MatGrid
+from tests.net.synth import toy_body, toy_dataset
+
+torch.set_num_threads(1)
+GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+
+
+@pytest.fixture(scope="module")
+def model_path(tmp_path_factory):
+    torch.manual_seed(0)
+    body = toy_body()
+    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((0.5, 1.0, 0.2), (0.3, 0.3, 0.1)))
+    net = PressureNet(cfg, gendered_body(body, body))
+    return save_model(tmp_path_factory.mktemp("model") / "m.safetensors", net, (body, body))
+
+
+def test_estimate_one_image_and_a_batch(model_path):
+    data = toy_dataset(3, grid=GRID)
+    one = estimate(data["pressure"][0].numpy(), "f", model=model_path)
+    assert one.betas.shape == (1, 10) and one.pose.shape == (1, 72) and one.joints.shape == (1, 24, 3)
+    assert one.vertices.shape == (1, 192, 3) and one.q.shape == (1, 16, 16) and one.gender == ["f"]
+    batch = estimate(data["pressure"], ["f", "male", "m"], model=model_path)
+    assert len(batch) == 3 and batch.gender == ["f", "m", "m"]
+    np.testing.assert_allclose(batch.joints[0], one.joints[0], atol=1e-5)
+
+
+def test_bad_inputs_are_refused(model_path, tmp_path):
+    good = np.zeros((16, 16), np.float32)
+    for bad, match in [(np.zeros((15, 16)), "shape"), (np.zeros((2, 3, 16, 16)), "shape"),
+                       (np.full((16, 16), np.nan), "NaN"), (-np.ones((16, 16)), "negative"),
+                       (np.array([["a"] * 16] * 16), "dtype")]:
+        with pytest.raises(BadInput, match=match):
+            estimate(bad, "f", model=model_path)
+    with pytest.raises(BadInput, match="gender"):
+        estimate(good, "x", model=model_path)
+    with pytest.raises(BadInput, match="genders for"):
+        estimate(np.zeros((2, 16, 16)), ["f"], model=model_path)
+    with pytest.raises(BadInput, match="does not exist"):
+        estimate(good, "f", model=tmp_path / "missing.safetensors")
+    (tmp_path / "p.txt").write_text("1,2")
+    with pytest.raises(BadInput, match="expected .npy"):
+        load_pressure(tmp_path / "p.txt")
+    (tmp_path / "p.csv").write_text("1,2\n3,oops\n")
+    with pytest.raises(BadInput, match="could not be read"):
+        load_pressure(tmp_path / "p.csv")
+
+
+def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
+    data = toy_dataset(2, grid=GRID)
+    img = data["pressure"].numpy()
+    np.save(tmp_path / "batch.npy", img)
+    np.savetxt(tmp_path / "one.csv", img[0], delimiter=",")
+    with h5py.File(tmp_path / "d.h5", "w") as f:
+        f["images"] = img
+    assert main(["infer", str(tmp_path / "batch.npy"), "--gender", "f,m", "--model", str(model_path),
+                 "--out", str(tmp_path / "a")]) == 0
+    rec = json.loads((tmp_path / "a" / "estimate.json").read_text())["estimates"]
+    assert len(rec) == 2 and rec[1]["gender"] == "m" and len(rec[0]["pose"]) == 72
+    assert len(rec[0]["joints"]) == 24
+    npz = np.load(tmp_path / "a" / "estimate.npz")
+    assert npz["vertices"].shape == (2, 192, 3)
+    for name in ("mesh_000.ply", "mesh_001.ply", "estimate_000.png", "estimate_001.png"):
+        assert (tmp_path / "a" / name).stat().st_size > 0
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
+                 "--out", str(tmp_path / "b"), "--mesh-format", "obj", "--max-figures", "0"]) == 0
+    assert (tmp_path / "b" / "mesh_000.obj").exists() and not (tmp_path / "b" / "estimate_000.png").exists()
+    b = json.loads((tmp_path / "b" / "estimate.json").read_text())["estimates"][0]
+    np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
+    assert main(["infer", str(tmp_path / "d.h5"), "--key", "images", "--gender", "f", "--model", str(model_path),
+                 "--out", str(tmp_path / "c")]) == 0
+    # bad input: a clear error and exit status 2
+    np.save(tmp_path / "nan.npy", np.full((16, 16), np.nan))
+    assert main(["infer", str(tmp_path / "nan.npy"), "--gender", "f", "--model", str(model_path),
+                 "--out", str(tmp_path / "d")]) == 2
+    assert main(["infer", str(tmp_path / "d.h5"), "--gender", "f", "--model", str(model_path),
+                 "--out", str(tmp_path / "d")]) == 2  # no 'pressure' dataset in it
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(tmp_path / "nope.pt"),
+                 "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err
