@@ -14,13 +14,11 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from pressurepose.data.schema import GENDERS, PARTITIONS, GenerationConfig, Sample
+from pressurepose.data.schema import GENDERS, IMAGE_FIELDS, LABEL_FIELDS, PARTITIONS, GenerationConfig, Sample
 from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, read_shard_arrays, samples_from_arrays,
                                      verify_shard)
 from pressurepose.errors import BadInput
 
-IMAGE_KEYS = ("pressure", "force", "depth", "contact")
-LABEL_KEYS = ("betas", "pose", "transl", "joints", "mass", "height")
 
 
 @dataclass(frozen=True)
@@ -104,7 +102,7 @@ class DatasetReader:
         for k in range(len(self.shards)):
             yield from self._shard_samples(k)
 
-    def load_arrays(self, fields: Sequence[str] = IMAGE_KEYS + LABEL_KEYS, *,
+    def load_arrays(self, fields: Sequence[str] = IMAGE_FIELDS + LABEL_FIELDS, *,
                     image_dtype=np.float16, label_dtype=np.float32) -> dict[str, np.ndarray]:
         """Every sample's ``fields`` stacked into arrays, read shard by shard into preallocated memory.
 
@@ -113,9 +111,9 @@ class DatasetReader:
         ``gender`` (uint8, index into GENDERS), ``partition`` (uint8, index into PARTITIONS) and
         ``index`` (int64, the sample's index within its dataset).
         """
-        unknown = [f for f in fields if f not in IMAGE_KEYS + LABEL_KEYS]
+        unknown = [f for f in fields if f not in IMAGE_FIELDS + LABEL_FIELDS]
         if unknown:
-            raise BadInput(f"unknown fields {unknown}; expected some of {', '.join(IMAGE_KEYS + LABEL_KEYS)}")
+            raise BadInput(f"unknown fields {unknown}; expected some of {', '.join(IMAGE_FIELDS + LABEL_FIELDS)}")
         n = len(self)
         if n == 0:
             raise BadInput(f"{self.root} holds no samples")
@@ -126,7 +124,7 @@ class DatasetReader:
         first = read_shard_arrays(self.shards[0].path, fields)
         shapes = {f: first[f].shape[1:] for f in fields}
         out = {f: np.empty((n,) + shapes[f], dtype=np.bool_ if f == "contact" else
-                           image_dtype if f in IMAGE_KEYS else label_dtype) for f in fields}
+                           image_dtype if f in IMAGE_FIELDS else label_dtype) for f in fields}
         out["gender"] = np.empty(n, np.uint8)
         out["partition"] = np.empty(n, np.uint8)
         out["index"] = np.empty(n, np.int64)

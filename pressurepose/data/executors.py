@@ -30,10 +30,7 @@ def run_units(units: Sequence[WorkUnit], *, workers: int = 1, ray_address: str |
               retries: int = 2, on_result: OnResult, on_progress: Progress | None = None,
               on_failure: OnFailure | None = None) -> int:
     """Run ``units``; returns how many retries were needed."""
-    if workers < 1:
-        raise BadInput(f"workers = {workers}; expected at least 1")
-    if retries < 0:
-        raise BadInput(f"retries = {retries}; expected 0 or more")
+    check_executor(workers, ray_address, retries)
     if not units:
         return 0
     if ray_address:
@@ -41,6 +38,16 @@ def run_units(units: Sequence[WorkUnit], *, workers: int = 1, ray_address: str |
     if workers == 1:
         return _run_here(units, retries, on_result, on_progress, on_failure)
     return _run_pool(units, workers, retries, on_result, on_progress, on_failure)
+
+
+def check_executor(workers: int, ray_address: str | None, retries: int) -> None:
+    """BadInput for settings that cannot run (checked before anything is written)."""
+    if workers < 1:
+        raise BadInput(f"workers = {workers}; expected at least 1")
+    if retries < 0:
+        raise BadInput(f"retries = {retries}; expected 0 or more")
+    if ray_address:
+        _import_ray()
 
 
 class _Retries:

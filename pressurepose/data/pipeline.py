@@ -220,13 +220,14 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     corrupt shards aside and remake them; only_shards: make just these shards (the rest may stay
     missing). Returns a :class:`RunReport`.
     """
-    from pressurepose.data.executors import run_units
+    from pressurepose.data.executors import check_executor, run_units
     from pressurepose.data.progress import ProgressBar
 
     t0 = time.perf_counter()
     out = Path(out)
     get_mat(config.mat)  # unknown mats fail here, before anything is written
     resolve_producer(config.producer)
+    check_executor(workers, ray_address, retries)
     manifest = open_output(out, config)
     todo = check_shards(out, manifest, repair)
     if only_shards is not None:

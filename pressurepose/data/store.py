@@ -34,14 +34,12 @@ import h5py
 import numpy as np
 
 from pressurepose import __version__
-from pressurepose.data.schema import GenerationConfig, Sample
+from pressurepose.data.schema import IMAGE_FIELDS, LABEL_FIELDS, GenerationConfig, Sample
 from pressurepose.errors import BadInput
 
 MANIFEST = "manifest.json"
 FORMAT = "pressurepose-dataset"
 FORMAT_VERSION = 1
-ARRAY_FIELDS: tuple[str, ...] = ("pressure", "force", "depth", "contact", "betas", "pose", "transl",
-                                 "joints", "mass", "height")
 _F32 = ("pressure", "force", "depth", "betas", "pose", "transl", "joints", "mass", "height")
 
 
@@ -135,7 +133,7 @@ def encode_shard(config: GenerationConfig, shard: int, samples: Sequence[Sample]
         f.attrs["shard"] = shard
         f.attrs["package_version"] = __version__
         f.attrs["rejections"] = json.dumps(dict(sorted(rejections.items())))
-        for name in ARRAY_FIELDS:
+        for name in IMAGE_FIELDS + LABEL_FIELDS:
             dtype = np.float32 if name in _F32 else np.bool_
             arr = np.stack([np.asarray(getattr(s, name), dtype=dtype) for s in samples])
             chunks = (min(n, 64),) + arr.shape[1:] if arr.ndim > 1 else None
@@ -169,11 +167,6 @@ def read_shard_arrays(path: Path, fields: Sequence[str] | None = None) -> dict[s
                 raise BadInput(f"shard {path}: field {name!r} is unreadable ({exc})") from None
             out[name] = arr.astype(str) if arr.dtype.kind == "S" else arr
         return out
-
-
-def read_shard_attrs(path: Path) -> dict[str, Any]:
-    with _open_shard(path) as f:
-        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
 
 
 def samples_from_arrays(arrays: dict[str, np.ndarray]) -> list[Sample]:

@@ -8,7 +8,8 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from pressurepose.data.dataset import IMAGE_KEYS, LABEL_KEYS, DatasetReader
+from pressurepose.data.dataset import DatasetReader
+from pressurepose.data.schema import IMAGE_FIELDS, LABEL_FIELDS
 
 
 class PressureDataset(Dataset):
@@ -24,7 +25,7 @@ class PressureDataset(Dataset):
     ``tensors`` holds the whole set (e.g. to move it to a GPU in one go).
     """
 
-    def __init__(self, source, fields: Sequence[str] = ("pressure", "contact") + LABEL_KEYS, *,
+    def __init__(self, source, fields: Sequence[str] = ("pressure", "contact") + LABEL_FIELDS, *,
                  image_dtype: torch.dtype = torch.float32):
         if isinstance(source, dict):
             arrays = source
@@ -42,7 +43,7 @@ class PressureDataset(Dataset):
         item = {}
         for k, t in self.tensors.items():
             v = t[i]
-            if k in IMAGE_KEYS and k != "contact":
+            if k in IMAGE_FIELDS and k != "contact":
                 v = v.to(self.image_dtype)
             elif k in ("gender", "partition", "index"):
                 v = v.to(torch.int64)
