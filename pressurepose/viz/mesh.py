@@ -8,11 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 
-# view name -> (right axis, up axis, toward-viewer axis) in the frame the vertices are given in
+# view name -> (image right, image up, toward the viewer); right x up = toward, so no view mirrors.
+# "front"/"side" are for a standing body (z-up frame); "top" looks down on the bed (head at the top
+# of the image); "below" looks up through the mat, laid out like a pressure image (row 0 at the top,
+# column 0 at the left); "bed_side" looks at a lying body from the +x side of the bed.
 VIEWS: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {
-    "front": (np.array([-1.0, 0, 0]), np.array([0, 0, 1.0]), np.array([0, -1.0, 0])),
-    "side": (np.array([0, -1.0, 0]), np.array([0, 0, 1.0]), np.array([1.0, 0, 0])),
-    "top": (np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 0, 1.0])),
+    "front": (np.array([1.0, 0, 0]), np.array([0, 0, 1.0]), np.array([0, -1.0, 0])),
+    "side": (np.array([0, 1.0, 0]), np.array([0, 0, 1.0]), np.array([1.0, 0, 0])),
+    "top": (np.array([-1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 0, 1.0])),
+    "below": (np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 0, -1.0])),
     "bed_side": (np.array([0, 1.0, 0]), np.array([0, 0, 1.0]), np.array([1.0, 0, 0])),
 }
 
