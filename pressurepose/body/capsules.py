@@ -62,26 +62,28 @@ NUM_CAPSULES = 20
 MERGED_INTO: dict[int, int] = {10: 7, 11: 8, 22: 20, 23: 21}
 
 _LEFT, _RIGHT, _UP, _DOWN, _FORWARD = (1.0, 0, 0), (-1.0, 0, 0), (0, 0, 1.0), (0, 0, -1.0), (0, -1.0, 0)
-# Expected axis direction of each capsule on a T-posed body (z-up frame). It breaks ties in the fit
-# (a region with no clear long axis) and places capsules for regressor files without placement.
+# Expected axis direction of each capsule on a T-posed body (z-up frame): the axis of the torso
+# capsules (across the body) and the head (up), and the placement for regressor files without one.
 NOMINAL_AXES = np.array([
     _LEFT, _DOWN, _DOWN, _LEFT, _DOWN, _DOWN, _LEFT, _FORWARD, _FORWARD, _LEFT,
     _UP, _LEFT, _RIGHT, _UP, _LEFT, _RIGHT, _LEFT, _RIGHT, _LEFT, _RIGHT,
 ])
+# The fitted axis of a limb capsule runs along its bone, from its joint to this child joint; -1: the
+# nominal axis (pelvis and spine capsules lie across the body, the head capsule stands up).
+AXIS_TARGETS: tuple[int, ...] = (-1, 4, 5, -1, 7, 8, -1, 10, 11, -1, 15, 16, 17, -1, 18, 19, 20, 21, 22, 23)
 # capsules centred on their joint when placed SMPLify's way (the others start at the joint)
 _CENTRED_ON_JOINT = (0, 3, 6, 9)
-# The fitted axis points to the side of this direction (nominal, tilted slightly off the coordinate
-# axes so that an axis perpendicular to the nominal one, as on the toy body, still gets a stable sign).
-_SIGN_REFERENCE = NOMINAL_AXES + np.array([0.0, -0.1, 0.3])
 # reference direction that fixes each capsule frame's local x axis (see module docstring)
 _FRAME_REFERENCE = np.array([_UP if n == _FORWARD else _FORWARD for n in map(tuple, NOMINAL_AXES)])
 
-# Fit settings. The axis is the principal direction of the region's vertices, with the nominal
-# direction added to the covariance at this fraction of its trace, so a region without a clear long
-# axis (a cube, a short neck) takes the nominal one and the choice varies smoothly with shape.
-AXIS_PRIOR = 0.25
-RADIUS_PERCENTILE = 90.0  # of the vertices' distances from the axis
-END_PERCENTILE = 98.0  # the segment ends cover this share of the region's vertices at each end
+# Moment fit (see fit_capsules). A region open at both ends (a tube: limbs, torso slices) has
+# E[rho^2] = r^2 about its axis; the head is closed at the top, more like a sphere surface, for which
+# E[rho^2] = 2/3 r^2. Both have extent sqrt(12 var(s)) along the axis. The cylinder is shorter than the
+# extent by CAP_INSET x r at each end: 0.5 for tubes (the caps reach half a radius past the region, into
+# the neighbours), 1 for the head (its cap ends where the head ends).
+_IS_HEAD = np.arange(NUM_CAPSULES) == CAPSULE_NAMES.index("head")
+RADIUS_FACTOR = np.where(_IS_HEAD, np.sqrt(1.5), 1.0)
+CAP_INSET = np.where(_IS_HEAD, 1.0, 0.5)
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,53 +190,64 @@ def capsule_regions(body) -> np.ndarray:
 # --------------------------------------------------------------------------- direct fit
 
 
-def _fit_region(points: np.ndarray, nominal: np.ndarray, sign_ref: np.ndarray,
-                ) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Centre (3,), unit axis (3,), radius and cylinder length of a capsule around ``points`` (n, 3)."""
-    mu = points.mean(0)
-    X = points - mu
-    C = X.T @ X / len(X)
-    C = C + AXIS_PRIOR * np.trace(C) * np.outer(nominal, nominal)
-    _, vecs = np.linalg.eigh(C)
-    d = vecs[:, -1] * (1.0 if vecs[:, -1] @ sign_ref >= 0 else -1.0)
-    e = vecs[:, :2]  # any orthonormal pair perpendicular to d
-    s = X @ d
-    q = X @ e
-    lo_q, hi_q = np.percentile(q, [100.0 - END_PERCENTILE, END_PERCENTILE], axis=0)
-    c_perp = 0.5 * (lo_q + hi_q)
-    rho = np.linalg.norm(q - c_perp, axis=1)
-    r = float(np.percentile(rho, RADIUS_PERCENTILE))
-    # a vertex at distance rho < r from the axis is inside if within sqrt(r^2 - rho^2) of the segment
-    h = np.sqrt(np.maximum(r * r - rho * rho, 0.0))
-    top = float(np.percentile(s - h, END_PERCENTILE))
-    bottom = float(np.percentile(s + h, 100.0 - END_PERCENTILE))
-    length = max(top - bottom, 0.0)
-    centre = mu + 0.5 * (top + bottom) * d + e @ c_perp
-    return centre, d, r, length
+def vertex_areas(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(V,) surface area (m^2) around each vertex: a third of each adjacent triangle's area."""
+    a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
+    tri = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    return np.bincount(faces.ravel(), weights=np.repeat(tri / 3.0, 3), minlength=len(verts))
+
+
+def _fit_raw(body, betas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Centres (20, 3) relative to their joints, unit axes (20, 3), radii (20,) and cylinder lengths
+    (20,) before clipping at 0 (a smooth function of betas, which is what the regressors fit)."""
+    verts, joints = body.rest(betas[None])
+    verts, joints = verts[0], joints[0]
+    regions = capsule_regions(body)
+    # areas of the mean shape (rotation does not change them): weights fixed across shapes keep the
+    # moments polynomial in betas, which the linear regressors then follow closely
+    area = vertex_areas(body.arrays.v_template, body.faces)
+    center, axis = np.zeros((NUM_CAPSULES, 3)), np.zeros((NUM_CAPSULES, 3))
+    radius, length = np.zeros(NUM_CAPSULES), np.zeros(NUM_CAPSULES)
+    for k, j in enumerate(CAPSULE_JOINTS):
+        pts = verts[regions == k]
+        w = area[regions == k] / area[regions == k].sum()
+        if len(pts) < 4:
+            raise BadInput(f"body model skins only {len(pts)} vertices mainly to joint {j} "
+                           f"({CAPSULE_NAMES[k]}); a capsule needs at least 4")
+        t = AXIS_TARGETS[k]
+        d = NOMINAL_AXES[k] if t < 0 else joints[t] - joints[j]
+        n = np.linalg.norm(d)
+        if n < 1e-6:
+            raise BadInput(f"joints {j} and {t} of the body model coincide; capsule {CAPSULE_NAMES[k]} "
+                           "has no axis")
+        d = d / n
+        mu = w @ pts
+        X = pts - mu
+        var_axial = w @ (X @ d) ** 2
+        var_perp = w @ np.sum(X * X, axis=1) - var_axial
+        r = RADIUS_FACTOR[k] * np.sqrt(var_perp)
+        center[k] = mu - joints[j]
+        axis[k] = d
+        radius[k] = r
+        length[k] = np.sqrt(12.0 * var_axial) - 2.0 * CAP_INSET[k] * r
+    return center, axis, radius, length
 
 
 def fit_capsules(body, betas) -> Capsules:
     """Capsules fitted directly to the shaped rest mesh of ``body`` for one shape ``betas`` (S,).
 
-    Each capsule covers the vertices whose dominant skinning weight is its joint (toes merged into the
-    feet, fingers into the hands): axis = principal direction of those vertices (nominal direction as
-    a weak prior), radius = the RADIUS_PERCENTILE-th percentile of their distances from the axis,
-    segment ends = the shortest that put END_PERCENTILE % of them inside at each end.
+    Each capsule is fitted to its region: the vertices whose dominant skinning weight is its joint
+    (toes merged into the feet, fingers into the hands), each weighted by the surface area around it
+    on the mean-shape mesh (so the fit does not depend on how densely the mesh is sampled). The axis
+    runs along the bone (joint to child joint; across the body for the pelvis and spine capsules, up
+    for the head) through the region's centroid; radius and length match the region's second moments
+    about that axis: radius = sqrt(mean squared distance from the axis) (x sqrt(3/2) for the head, a
+    closed end), extent along the axis sqrt(12 var), cylinder = extent - 2 CAP_INSET radius (at least
+    0). Moments make the fit a smooth function of betas, so the linear regressors reproduce it closely.
     """
     betas = check_betas(body, betas)
-    verts, joints = body.rest(betas[None])
-    verts, joints = verts[0], joints[0]
-    regions = capsule_regions(body)
-    center, axis = np.zeros((NUM_CAPSULES, 3)), np.zeros((NUM_CAPSULES, 3))
-    radius, length = np.zeros(NUM_CAPSULES), np.zeros(NUM_CAPSULES)
-    for k, j in enumerate(CAPSULE_JOINTS):
-        pts = verts[regions == k]
-        if len(pts) < 4:
-            raise BadInput(f"body model skins only {len(pts)} vertices mainly to joint {j} "
-                           f"({CAPSULE_NAMES[k]}); a capsule needs at least 4")
-        c, axis[k], radius[k], length[k] = _fit_region(pts, NOMINAL_AXES[k], _SIGN_REFERENCE[k])
-        center[k] = c - joints[j]
-    return make_capsules(center, axis, radius, length)
+    center, axis, radius, length = _fit_raw(body, betas)
+    return make_capsules(center, axis, radius, np.maximum(length, 0.0))
 
 
 # --------------------------------------------------------------------------- regressors
@@ -304,13 +317,13 @@ def fit_regressors(body, num_samples: int = 200, seed: int = 0, beta_range: floa
         raise BadInput(f"num_betas {num_betas!r} must be between 1 and {body.num_betas}")
     betas = np.zeros((num_samples, body.num_betas))
     betas[:, :n] = rng.uniform(-beta_range, beta_range, (num_samples, n))
-    fits = [fit_capsules(body, b) for b in betas]
+    fits = [_fit_raw(body, b) for b in betas]  # lengths not yet clipped at 0: smooth in betas
     A = np.hstack([betas, np.ones((num_samples, 1))])
     targets = {
-        "lens": np.stack([f.length for f in fits]),
-        "rads": np.stack([f.radius for f in fits]),
-        "centers": np.stack([f.center.ravel() for f in fits]),
-        "axes": np.stack([f.axis.ravel() for f in fits]),
+        "lens": np.stack([f[3] for f in fits]),
+        "rads": np.stack([f[2] for f in fits]),
+        "centers": np.stack([f[0].ravel() for f in fits]),
+        "axes": np.stack([f[1].ravel() for f in fits]),
     }
     coef, meta = {}, {"fit_num_samples": num_samples, "fit_seed": seed, "fit_beta_range": beta_range,
                       "fit_num_betas": n}
