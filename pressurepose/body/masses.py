@@ -19,10 +19,13 @@ hand         left_hand / right_hand
 ============ ==================================================================
 
 Within a segment of several capsules the mass is split by **shared volume**: the rest-pose capsules are
-voxelised (default 2 mm) and a voxel inside k capsules (of any segment) gives 1/k of its volume to
-each. Each capsule's mass is then spread uniformly over its own solid (cylinder + two hemispheres),
-so its centre of mass is the capsule centre (``com`` = 0 in the capsule frame) and its inertia about
-the centre, in the capsule frame (axis = local z), is the analytic one of :func:`capsule_inertia`.
+voxelised (2 mm as in the paper with ``voxel=PAPER_VOXEL``; 5 mm by default at run time, which moves
+no capsule mass by more than about 1.5 % on the shipped models) and a voxel inside k capsules (of any
+segment) gives 1/k of its volume to each. Each capsule's mass is then spread uniformly over its own
+solid (cylinder + two hemispheres), so its centre of mass is the capsule centre (``com`` = 0 in the
+capsule frame) and its inertia about the centre, in the capsule frame (axis = local z), is the
+analytic one of :func:`capsule_inertia`. :func:`joint_frame_mass_properties` turns both into the
+capsule's rest joint frame (what a rigid body riding on the joint needs).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.capsules import NUM_CAPSULES, Capsules, capsule_endpoints, capsules_for, check_betas
-from pressurepose.body.model import canonical_gender
+from pressurepose.body.model import canonical_gender, mesh_volume
 from pressurepose.errors import BadInput
 
 SEGMENT_FRACTIONS: dict[str, dict[str, float]] = {  # % of body mass, REFERENCE section 4
@@ -46,7 +49,10 @@ CAPSULE_SEGMENTS: tuple[str, ...] = (
     "head_neck", "trunk", "trunk", "head_neck", "upper_arm", "upper_arm", "forearm", "forearm",
     "hand", "hand",
 )
-DEFAULT_VOXEL = 0.002
+PAPER_VOXEL = 0.002  # the paper's voxel size for sharing overlaps (m)
+# Default at run time: on the shipped models it moves no capsule mass by more than about 1.5 % from the
+# 2 mm result and takes ~20 ms instead of ~100-250 ms per body (benchmarks/bench_body.py, docs/RESULTS.md).
+RUNTIME_VOXEL = 0.005
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,7 +122,7 @@ def _inside(ends: np.ndarray, radius: float, axes: tuple[np.ndarray, np.ndarray,
     return r2 - 2.0 * s * proj + s * s <= radius * radius
 
 
-def shared_volumes(ends: np.ndarray, radius: np.ndarray, voxel: float = DEFAULT_VOXEL,
+def shared_volumes(ends: np.ndarray, radius: np.ndarray, voxel: float = PAPER_VOXEL,
                    which=None) -> np.ndarray:
     """Volume (len(which),) m^3 of capsules ``which`` with overlaps shared out.
 
@@ -162,25 +168,19 @@ def joint_frame_mass_properties(masses: CapsuleMasses, caps: Capsules) -> tuple[
     return com, R @ masses.inertia @ np.swapaxes(R, 1, 2)
 
 
-def rest_endpoints(body, caps: Capsules, betas) -> np.ndarray:
-    """Axis-segment ends (20, 2, 3) of the capsules on the shaped rest body (z-up, no translation)."""
-    betas = check_betas(body, betas)
-    _, joints = body.rest(betas[None])
-    eye = np.broadcast_to(np.eye(3), (1, body.num_joints, 3, 3))
-    return capsule_endpoints(caps, joints, eye)[0]
-
-
-def segment_masses(body, betas, gender: str | None = None, voxel: float = DEFAULT_VOXEL,
+def segment_masses(body, betas, gender: str | None = None, voxel: float = RUNTIME_VOXEL,
                    caps: Capsules | None = None) -> CapsuleMasses:
     """Masses and inertias of the 20 capsules of ``body`` with shape ``betas`` (S,).
 
     gender: segment-fraction table (f, m or n; default the body's); voxel: voxel size (m) for sharing
-    overlapping volume within the trunk and head+neck segments; caps: the capsules (default
-    :func:`capsules_for`). The masses sum to ``body.mass(betas)``.
+    overlapping volume within the trunk and head+neck segments (``PAPER_VOXEL`` = 2 mm for the paper's
+    grid; the default ``RUNTIME_VOXEL`` = 5 mm is 5-10 times faster and within about 1.5 % of it); caps: the
+    capsules (default :func:`capsules_for`). The masses sum to ``body.mass(betas)``.
     """
     betas = check_betas(body, betas)
     caps = capsules_for(body, betas) if caps is None else caps
-    total = float(body.mass(betas[None])[0])
+    verts, joints = body.rest(betas[None])
+    total = 1000.0 * float(mesh_volume(verts, body.faces)[0])  # = body.mass(betas), one pass fewer
     if not total > 0:
         raise BadInput(f"body volume for these betas is {total / 1000.0:.4g} m^3; the mesh must be closed "
                        "and outward-facing")
@@ -188,7 +188,8 @@ def segment_masses(body, betas, gender: str | None = None, voxel: float = DEFAUL
     group = _segment_groups()
     shared = [k for k in range(NUM_CAPSULES) if np.sum(group == group[k]) > 1]
     vol = np.ones(NUM_CAPSULES)
-    vol[shared] = shared_volumes(rest_endpoints(body, caps, betas), caps.radius, voxel, shared)
+    eye = np.broadcast_to(np.eye(3), (1, body.num_joints, 3, 3))
+    vol[shared] = shared_volumes(capsule_endpoints(caps, joints, eye)[0], caps.radius, voxel, shared)
     group_vol = np.array([vol[group == g].sum() for g in group])
     mass = total * frac * vol / group_vol
     return CapsuleMasses(mass=mass, inertia=capsule_inertia(mass, caps.radius, caps.length),
