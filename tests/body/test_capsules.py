@@ -122,8 +122,8 @@ def test_torch_layer_rotations_give_the_same_capsules(toy):
 
 
 def test_toy_regressors_reproduce_direct_fit_and_round_trip(toy, tmp_path):
-    """The toy's first two betas scale and widen it (linear); the others jiggle single vertices of
-    8-vertex boxes, which percentile fits follow non-linearly, so only the first two are used."""
+    """The toy's first two betas scale and widen it; the others jiggle the corners of its 8-vertex
+    boxes at random, which moves such tiny regions' moments non-linearly, so only the first two vary."""
     reg, _ = fit_regressors(toy, num_samples=30, seed=3, num_betas=2)
     assert reg.betas2lens.shape == (11, 20) and reg.betas2centers.shape == (11, 60)
     np.testing.assert_array_equal(reg.betas2lens[2:10], 0.0)
