@@ -153,8 +153,9 @@ class BedSpec:
     mattress_length_m: float = 80 * INCH
     mattress_thickness_m: float = 8 * INCH
     mat_offset_m: tuple[float, float] | None = None
-    stiffness_n_m3: float = 6.0e4
-    coupling_n_m: float = 60.0
+    # fitted by `pressurepose calibrate --targets default` (docs/calibration.md)
+    stiffness_n_m3: float = 9.40e4
+    coupling_n_m: float = 6.24
     damping_s: float = 0.15
     friction: float = 0.5
     sensor_c0: float = 0.0

@@ -286,16 +286,19 @@ def targets_loss(result: PressResult, targets: PhysicalTargets) -> float:
         abs(p) + targets.peak_mmhg)
 
 
-def supine_body_mesh(body, bed: BedSpec, betas=None, arm_drop_rad: float = 1.3):
+def supine_body_mesh(body, bed: BedSpec, betas=None, arm_drop_rad: float = 1.3, pose_offset=None):
     """An SMPL-format ``body`` (a BodyModel) lying supine on the bed, arms lowered to its sides by
     ``arm_drop_rad`` at the shoulders, centred on the sensing area with its lowest point at z = 0.
 
-    Head toward row 0, face up. Returns (vertices (V, 3) bed frame, faces (F, 3)).
+    Head toward row 0, face up. ``pose_offset`` (72,) is added to the joint angles (its first
+    three values, the root, are ignored). Returns (vertices (V, 3) bed frame, faces (F, 3)).
     """
     from pressurepose.body.joints import joint_index
 
     betas = np.zeros(body.num_betas) if betas is None else np.asarray(betas, dtype=np.float64)
     pose = np.zeros(3 * body.num_joints)
+    if pose_offset is not None:
+        pose[3:] = np.asarray(pose_offset, dtype=np.float64)[3:]
     # SMPL's own joint frames (y up, z forward): turning the left arm (+x) about -z lowers it
     pose[3 * joint_index("left_shoulder") + 2] = -arm_drop_rad
     pose[3 * joint_index("right_shoulder") + 2] = arm_drop_rad

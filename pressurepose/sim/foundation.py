@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
+import scipy.sparse
 
 
 class PressFailed(RuntimeError):
@@ -71,18 +72,20 @@ def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell: float, weight_n: floa
         d = np.maximum(-(b0 + jac @ q), 0.0)
         lam = k_cell * d
         grad = target - jac.T @ lam
-        if np.all(np.abs(grad) <= 1e-10 * scale):
-            if np.any(np.abs(q[1:]) > max_slope):
-                raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
-                                  f"its centre of mass is outside the area it rests on")
-            return ContactSolution(lam, q, it)
         on = d > 0
         hess = k_cell * jac[on].T @ jac[on]
         hess += 1e-12 * np.trace(hess) * np.eye(3)
         step = -np.linalg.solve(hess, grad)
+        # converged: balanced to 1e-10 of the weight, or moving no cell by 1 nm (round-off)
+        if np.all(np.abs(grad) <= 1e-10 * scale) or np.abs(jac[on] @ step).max() < 1e-9:
+            if np.any(np.abs(q[1:]) > max_slope):
+                raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
+                                  f"its centre of mass is outside the area it rests on")
+            return ContactSolution(lam, q, it)
         e0, t = energy(q), 1.0
-        while energy(q + t * step) > e0 + 1e-4 * t * grad @ step and t > 1e-8:
-            t *= 0.5
+        if not np.array_equal(b0 + jac @ (q + step) < 0, on):  # the energy is quadratic while contact holds
+            while energy(q + t * step) > e0 + 1e-4 * t * grad @ step and t > 1e-8:
+                t *= 0.5
         q = q + t * step
         if np.any(np.abs(q[1:]) > 10 * max_slope):  # Newton is heading for a tip-over
             raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
@@ -114,6 +117,32 @@ class PasternakFoundation:
         axes = (-2, -1)
         c = scipy.fft.dctn(lam_grid, type=2, norm="ortho", axes=axes, workers=1)
         return scipy.fft.idctn(c / self.eig, type=2, norm="ortho", axes=axes, workers=1)
+
+    def stiffness_matrix(self, flat_index: np.ndarray) -> scipy.sparse.csr_matrix:
+        """K restricted to the cells ``flat_index`` of the flattened patch (n x n, sparse): what
+        :meth:`stiffness` gives on those cells for deflections that are zero elsewhere."""
+        ny, nx = self.shape
+        n = len(flat_index)
+        where = np.full(ny * nx, -1)
+        where[flat_index] = np.arange(n)
+        j, i = np.divmod(flat_index, nx)
+        diag = np.full(n, self.k_cell)
+        rows, cols, vals = [], [], []
+        for dj, di, g in ((0, 1, self.gx), (0, -1, self.gx), (1, 0, self.gy), (-1, 0, self.gy)):
+            jn, inb = j + dj, i + di
+            inside = (jn >= 0) & (jn < ny) & (inb >= 0) & (inb < nx)
+            diag[inside] += g  # a spring to every neighbour on the patch (free edges have none)
+            other = np.full(n, -1)
+            other[inside] = where[jn[inside] * nx + inb[inside]]
+            both = other >= 0
+            rows.append(np.nonzero(both)[0])
+            cols.append(other[both])
+            vals.append(np.full(both.sum(), -g))
+        rows.append(np.arange(n))
+        cols.append(np.arange(n))
+        vals.append(diag)
+        return scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                       shape=(n, n))
 
     def stiffness(self, w_grid: np.ndarray) -> np.ndarray:
         """Cell forces (N) that hold deflections w (m), both (..., ny, nx)."""
@@ -150,11 +179,13 @@ def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
     def flex(v):
         return found.flexibility(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index]
 
-    def stiff(v, on):  # K restricted to the contact cells
-        v = np.where(on, v, 0.0)
-        return np.where(on, found.stiffness(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index], 0.0)
+    k_cand = found.stiffness_matrix(flat_index)
+
+    def stiff(v, on):  # K restricted to the contact cells, v (..., n)
+        return np.where(on, (k_cand @ np.where(on, v, 0.0).T).T, 0.0)
 
     lam = _balance(np.maximum(lam0, 0.0), jac, target)
+    w = flex(lam)
     t = np.zeros_like(lam)
     rho_old, conj, on_old = 1.0, False, None
     for it in range(1, max_iter + 1):
@@ -164,33 +195,37 @@ def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
             jkj = jac[on].T @ kj[:, on].T                 # (3, 3) J' K_A J
             jkj_inv = np.linalg.inv(jkj + 1e-14 * np.trace(jkj) * np.eye(3))
             on_old = on
-        raw = flex(lam) + b0                              # gap before the rigid move
-        kr = stiff(raw, on)
+        raw = w + b0                                      # gap before the rigid move
         coef = jkj_inv @ (kj[:, on] @ raw[on])
-        z = kr - coef @ kj                                # projected, preconditioned gradient
+        z = stiff(raw, on) - coef @ kj                    # projected, preconditioned gradient
         q = -coef                                         # the rigid move that best closes the gap
         gap = raw + jac @ q
         rho = gap[on] @ z[on]  # not raw: its large rigid part would swamp the round-off test
-        t = z + (rho / rho_old) * t if conj else z
-        t = np.where(on, t, 0.0)
+        t = np.where(on, z + (rho / rho_old) * t if conj else z, 0.0)
         rho_old = rho
         ht = flex(t)
         denom = t[on] @ ht[on]
         tau = (gap[on] @ t[on]) / denom if denom > 0 else 0.0
         lam_old = lam
-        lam = np.maximum(lam - tau * t, 0.0)
-        enter = (lam == 0) & (gap < 0)
-        conj = not enter.any() and np.array_equal(lam > 0, on)
-        if enter.any():
+        step = lam - tau * t
+        enter = (step <= 0) & (gap < 0) & ~on
+        conj = not enter.any() and not np.any(step[on] <= 0)
+        if conj:  # the active set holds: a plain CG step, balanced by construction
+            lam = step
+            w = w - tau * ht
+        else:
+            lam = np.maximum(step, 0.0)
             lam[enter] = -gap[enter] * found.k_cell
-        if not conj:
             lam = _balance(lam, jac, target)
-        if np.abs(q[1:]).max() > max_slope:
+            w = flex(lam)
+        if np.abs(q[1:]).max() > 10 * max_slope:  # heading for a tip-over
             raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f})")
         if np.abs(lam - lam_old).sum() < tol * weight_n:
             on = lam > 0
-            raw = flex(lam) + b0
-            q = np.linalg.lstsq(jac[on], -raw[on], rcond=None)[0]
+            q = np.linalg.lstsq(jac[on], -(flex(lam) + b0)[on], rcond=None)[0]
+            if np.abs(q[1:]).max() > max_slope:
+                raise PressFailed(f"no equilibrium: the body tips over (slope {q[1]:.2f}, {q[2]:.2f}); "
+                                  f"its centre of mass is outside the area it rests on")
             return ContactSolution(lam, q, it)
     raise PressFailed(f"Pasternak contact did not converge in {max_iter} iterations")
 

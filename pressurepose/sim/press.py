@@ -165,8 +165,12 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
         if xy.shape != (2,) or not np.all(np.isfinite(xy)):
             raise BadInput(f"com_xy is {com_xy!r}; expected two finite numbers (x, y) in metres")
         com = np.array([xy[0], xy[1], com[2]])
+    # the lowest point over any spot lies on a face turned downward (outward normals: volume > 0)
+    e1, e2 = verts[tris[:, 1]] - verts[tris[:, 0]], verts[tris[:, 2]] - verts[tris[:, 0]]
+    normal_z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    down = tris[normal_z * np.sign(volume) < 0]
     grid = press_grid(bed)
-    return Heightfield(lower_surface(verts, tris, grid.origin_xy, grid.cell_xy, grid.shape), com, grid)
+    return Heightfield(lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape), com, grid)
 
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,

@@ -207,3 +207,41 @@ def test_total_force_of_calibration_objects_is_their_weight():
     # all four objects lie inside the sensing area: the mat sees all their weight
     np.testing.assert_allclose(force.sum((1, 2)), data.mass_kg * GRAVITY, rtol=1e-6)
     assert np.all(sink > 0)
+
+
+def test_supine_body_lies_head_first_face_up():
+    from pressurepose.body import BodyModel
+    from pressurepose.body.joints import JOINT_NAMES
+    from pressurepose.body.toy import toy_body_arrays
+    from pressurepose.sim.calibrate import supine_body_mesh
+
+    body = BodyModel(toy_body_arrays())
+    bed = get_bed()
+    v, f = supine_body_mesh(body, bed, arm_drop_rad=0.0)
+    assert v[:, 2].min() == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose((v.max(0) + v.min(0))[:2] / 2, [bed.mat.width_m / 2, bed.mat.length_m / 2])
+    # the same map applied to the joints: head toward row 0, body's left toward -x, front up
+    _, joints = body.forward(np.zeros(body.num_betas), np.zeros(72))
+    rot = np.array([[-1.0, 0, 0], [0, 0, -1.0], [0, -1.0, 0]])
+    j = joints[0] @ rot.T
+    idx = {n: JOINT_NAMES.index(n) for n in ("head", "pelvis", "left_ankle", "left_wrist", "right_wrist")}
+    assert j[idx["head"], 1] < j[idx["pelvis"], 1] < j[idx["left_ankle"], 1]
+    assert j[idx["left_wrist"], 0] < j[idx["right_wrist"], 0]
+    assert np.linalg.det(rot) == pytest.approx(1.0)
+    lowered, _ = supine_body_mesh(body, bed)  # arms at the sides: narrower across the bed
+    assert np.ptp(lowered[:, 0]) < 0.6 * np.ptp(v[:, 0])
+
+
+def test_calibrate_verb_with_default_targets_runs(tmp_path):
+    from pressurepose.body.smpl_io import save_body_arrays
+    from pressurepose.body.toy import toy_body_arrays
+
+    model = tmp_path / "toy.npz"
+    save_body_arrays(model, toy_body_arrays())
+    out = tmp_path / "bed.json"
+    code = main(["calibrate", "--targets", "default", "--body", str(model), "--popsize", "4", "--max-evals", "4",
+                 "--out", str(out)])
+    assert code == 0
+    record = json.loads(out.read_text())
+    assert record["source"]["targets"]["max_sink_m"] == 0.065 and record["evaluations"] >= 4
+    assert load_fitted_bed(out).mat == get_bed().mat
