@@ -25,6 +25,21 @@ def test_flattened_size_of_the_paper_input_is_67200():
     assert [m.p for m in cnn.features if isinstance(m, torch.nn.Dropout)] == [0.1] * 4
 
 
+def test_eval_forward_equals_the_layer_sequence():
+    torch.manual_seed(0)
+    cnn = PressureCNN(3, 64, 40).eval()
+    x = torch.randn(2, 3, 64, 40)
+    with torch.no_grad():
+        ref = cnn.fc(cnn.features(x).flatten(1))  # conv, tanh, dropout (identity), pool, ...
+        assert torch.allclose(cnn(x), ref, atol=1e-6)
+    cnn.train()
+    torch.manual_seed(1)
+    a = cnn(x)
+    torch.manual_seed(1)
+    b = cnn.fc(cnn.features(x.contiguous(memory_format=torch.channels_last)).flatten(1))
+    assert torch.allclose(a, b, atol=1e-6)
+
+
 def test_cnn_other_mats_and_gender_input():
     cnn = PressureCNN(5, 56 * 2, 40 * 2, gender_input=True)  # TIP sheet, Mod2 channels
     assert cnn.fc.in_features == flattened_size(112, 80) + 1
