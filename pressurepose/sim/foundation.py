@@ -97,8 +97,9 @@ class PasternakFoundation:
     """A rectangular patch of (ny, nx) cells of size dx x dy of a Pasternak foundation, free edges.
 
     Stiffness ``K = k_A dx dy I + G (dy/dx) Lx + G (dx/dy) Ly`` (L: 1-D Laplacians with free ends).
-    :meth:`stiffness` applies K with a 5-point stencil; :meth:`flexibility` applies ``K^-1``,
-    which is diagonal in the type-II cosine basis (two FFT-sized transforms).
+    :meth:`stiffness_matrix` gives K on a set of cells (sparse, 5-point); :meth:`flexibility` applies
+    ``K^-1`` to the whole patch, which is diagonal in the type-II cosine basis (two FFT-sized
+    transforms).
     """
 
     def __init__(self, shape: tuple[int, int], cell_xy: tuple[float, float], k_a: float, g: float):
@@ -119,8 +120,8 @@ class PasternakFoundation:
         return scipy.fft.idctn(c / self.eig, type=2, norm="ortho", axes=axes, workers=1)
 
     def stiffness_matrix(self, flat_index: np.ndarray) -> scipy.sparse.csr_matrix:
-        """K restricted to the cells ``flat_index`` of the flattened patch (n x n, sparse): what
-        :meth:`stiffness` gives on those cells for deflections that are zero elsewhere."""
+        """K restricted to the cells ``flat_index`` of the flattened patch (n x n, sparse): the forces
+        on those cells for deflections that are zero elsewhere."""
         ny, nx = self.shape
         n = len(flat_index)
         where = np.full(ny * nx, -1)
@@ -143,17 +144,6 @@ class PasternakFoundation:
         vals.append(diag)
         return scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                                        shape=(n, n))
-
-    def stiffness(self, w_grid: np.ndarray) -> np.ndarray:
-        """Cell forces (N) that hold deflections w (m), both (..., ny, nx)."""
-        out = self.k_cell * w_grid
-        d = np.diff(w_grid, axis=-1) * self.gx
-        out[..., :-1] -= d
-        out[..., 1:] += d
-        d = np.diff(w_grid, axis=-2) * self.gy
-        out[..., :-1, :] -= d
-        out[..., 1:, :] += d
-        return out
 
 
 def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,

@@ -24,9 +24,8 @@ from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, rigid_jacobian,
                                          solve_pasternak, solve_winkler)
 from pressurepose.sim.raster import lower_surface
-from pressurepose.sim.sensor import read_sensor
+from pressurepose.sim.sensor import GRAVITY, read_sensor
 
-GRAVITY = 9.81
 # Depth reported for taxels with no part of the body above them: far above any resting body, so
 # "contact = depth < 0" and a sunk-depth target max(0, -depth) both read "nothing here".
 DEPTH_EMPTY_M = 1.0

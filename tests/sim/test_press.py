@@ -177,6 +177,7 @@ def test_pasternak_solution_meets_the_contact_conditions():
     ny, nx = shape
     stiff = (k_a * dx * dy * sp.eye(nx * ny) + g_shear * dy / dx * sp.kron(sp.eye(ny), lap(nx))
              + g_shear * dx / dy * sp.kron(lap(ny), sp.eye(nx))).tocsc()
+    np.testing.assert_allclose(found.stiffness_matrix(flat).toarray(), stiff[flat][:, flat].toarray(), atol=1e-12)
     lam = np.zeros(nx * ny)
     lam[flat] = sol.lam
     w = spl.spsolve(stiff, lam)
