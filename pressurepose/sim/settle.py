@@ -1,0 +1,371 @@
+"""Physics simulation #1: rest the capsule ragdoll on the soft bed (paper section 3.2, appendix A.2).
+
+The procedure is the paper's: the ragdoll (:mod:`pressurepose.sim.ragdoll`) starts in the sampled
+pose with its lowest point just above the mattress (:mod:`pressurepose.sim.cellbed`); until the
+pelvis (buttocks) capsule reaches the bed (or, for a body held up by other parts, until the bed
+carries half its weight) every 4th step zeroes its velocities, so a limb that touches first does
+not let the trunk build momentum; it then runs until the resting criterion (the
+fastest capsule point slower than 0.05 m/s and accelerating less than 0.5 m/s^2) has held for
+``rest_hold_steps`` consecutive steps, or gives up after 2000 steps (dt = 0.01 s).
+
+Why hold the criterion for 20 steps (0.2 s): a single step can pass it at the turning point of a
+slow rocking or bouncing motion; the slowest motions here (the trunk rocking on the mattress, a limb
+swinging on its damped joints) turn around over a few steps, and 0.2 s is longer than that yet
+short against the settle itself (the benchmark measures how far bodies still move after being
+declared at rest).
+
+A sample is rejected, and the cause counted, when it:
+
+* ``not_settled``: runs 2000 steps without resting;
+* ``unstable``: produces non-finite numbers, a MuJoCo warning, a capsule faster than 5 m/s, or
+  pushes the mattress through its full thickness (the paper's "limb poking into the mat");
+* ``fell_off_bed``: its centre of mass leaves the mattress outline, or its pelvis drops more than
+  ``fall_depth_m`` below the mattress top;
+* ``posture_changed``: rests in another posture class (supine / prone / lateral) than it started in;
+* ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job).
+
+Speed: one compiled model per (bed, config) serves every body; per sample only the shape-dependent
+numbers are rewritten (:func:`pressurepose.sim.ragdoll.write_params`) and MuJoCo's derived constants
+recomputed, so nothing is compiled per sample.
+
+Frames: inputs and outputs are SMPL parameters (pose in SMPL's own axis-angle, translation in the
+z-up bed frame, as ``BodyModel.forward``); the resting pose is exact for the mesh:
+``posed_capsules(body, caps, betas, result.pose, result.transl)`` gives the ragdoll's capsules.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from pressurepose.body.capsules import CAPSULE_NAMES, NUM_CAPSULES
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import BedSpec, get_bed
+from pressurepose.sim.cellbed import CellBed, CellIndex, add_cells, cell_bed, cell_forces, cell_sink
+from pressurepose.sim.posture import posture_class
+from pressurepose.sim.ragdoll import (LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
+                                      limit_torques, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
+                                      ragdoll_params, write_params)
+
+STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision")
+PELVIS = CAPSULE_NAMES.index("pelvis")
+_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+             mujoco.mjtWarning.mjWARN_CONTACTFULL, mujoco.mjtWarning.mjWARN_CNSTRFULL)
+
+
+@dataclass(frozen=True)
+class SettleConfig:
+    """Settings of physics simulation #1 (defaults: the paper's procedure, REFERENCE sections 4-5).
+
+    timestep_s, max_steps, zero_every: step length, step budget, velocity-zeroing period before the
+        pelvis touches. rest_speed_m_s, rest_accel_m_s2, rest_hold_steps: the resting criterion and
+        how many consecutive steps it must hold. drop_clearance_m: the lowest capsule point's start
+        height above the mattress.
+    cell_m: cell size of the mattress grid (default the taxel pitch); stiffness_n_m3: the settle
+        model's foundation modulus (default the bed's; calibrate it with :func:`rigid_sink`);
+        coupling: tie neighbouring cells with the bed's shear stiffness.
+    self_collision: limbs (forearms, hands, calves, feet) collide with the other capsules.
+    cone: MuJoCo's friction cone, 'pyramidal' or 'elliptic'.
+    limit_stiffness_factor: ball-joint limit penalty, multiple of the joint stiffness.
+    iterations, ls_iterations, tolerance: Newton solver settings.
+    max_speed_m_s: faster capsule points mean the simulation blew up; fall_depth_m: a pelvis this far
+        below the mattress top has fallen off; self_collision_tol_m: start overlap allowed between limbs.
+    mass_voxel_m: voxel size for sharing overlapping capsule volume in the mass split.
+    """
+
+    timestep_s: float = 0.01
+    max_steps: int = 2000
+    zero_every: int = 4
+    rest_speed_m_s: float = 0.05
+    rest_accel_m_s2: float = 0.5
+    rest_hold_steps: int = 20
+    drop_clearance_m: float = 0.005
+    cell_m: float | None = None
+    stiffness_n_m3: float | None = None
+    coupling: bool = True
+    self_collision: bool = True
+    limit_stiffness_factor: float = LIMIT_STIFFNESS_FACTOR
+    cone: str = "pyramidal"
+    iterations: int = 50
+    ls_iterations: int = 20
+    tolerance: float = 1e-8
+    max_speed_m_s: float = 5.0
+    fall_depth_m: float = 0.25
+    self_collision_tol_m: float = 0.002
+    mass_voxel_m: float = 0.002
+
+    def __post_init__(self):
+        for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise BadInput(f"settle {name} is {v!r}; expected a positive whole number")
+        for name in ("timestep_s", "rest_speed_m_s", "rest_accel_m_s2", "tolerance", "max_speed_m_s",
+                     "fall_depth_m", "mass_voxel_m", "limit_stiffness_factor"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise BadInput(f"settle {name} is {v!r}; expected a positive number")
+        if self.cone not in _CONES:
+            raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(_CONES)}")
+        for name in ("drop_clearance_m", "self_collision_tol_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise BadInput(f"settle {name} is {v!r}; expected zero or a positive number")
+
+
+@dataclass(frozen=True, eq=False)
+class SettleResult:
+    """Outcome of settling one body.
+
+    status: 'settled' or the cause of rejection (see module docstring; ``STATUSES``).
+    pose: (72,) SMPL axis-angle and transl: (3,) m (z-up bed frame) of the resting body (of the last
+        state reached when rejected); betas: (S,); gender.
+    steps: steps simulated; touch_step: the step the pelvis reached the bed (-1 if never).
+    capsules: (20, 2, 3) world axis-segment ends of the ragdoll's capsules at the end, radius (20,).
+    posture_start, posture: posture class of the input and of the result.
+    mass_kg: body mass; bed_force_n: total vertical force on the mattress at the end (m g at rest);
+    max_sink_m: the deepest cell displacement at the end (positive down).
+    """
+
+    status: str
+    pose: np.ndarray
+    transl: np.ndarray
+    betas: np.ndarray
+    gender: str
+    steps: int
+    touch_step: int
+    capsules: np.ndarray
+    radius: np.ndarray
+    posture_start: str
+    posture: str
+    mass_kg: float
+    bed_force_n: float
+    max_sink_m: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "settled"
+
+
+class SettleModel:
+    """One compiled MuJoCo model (ragdoll + cell bed) reused for every body on one bed and config.
+
+    The first body compiles it; later bodies rewrite the shape-dependent numbers in place.
+    ``model``, ``data``, ``cells``, ``ragdoll`` (a :class:`RagdollIndex`), ``cell_index``.
+    """
+
+    def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams):
+        self.bed, self.config = bed, config
+        self.cells: CellBed = cell_bed(bed, config.cell_m, stiffness_n_m3=config.stiffness_n_m3,
+                                       coupling=config.coupling)
+        self.model = build_spec(params, self.cells, config).compile()
+        self.data = mujoco.MjData(self.model)
+        self.ragdoll = RagdollIndex.of(self.model)
+        self.cell_index = CellIndex.of(self.model, self.cells)
+        # the ragdoll comes first in the tree: its dofs are the leading block
+        self.nq = 7 + 4 * len(self.ragdoll.ball) + len(self.ragdoll.hinge)
+        self.nv = 6 + 3 * len(self.ragdoll.ball) + len(self.ragdoll.hinge)
+        if self.ragdoll.qpos.min() != 0 or int(self.model.dof_bodyid[self.nv - 1]) not in set(self.ragdoll.body):
+            raise RuntimeError("the ragdoll's joints must lead the model's qpos")
+        g = self.ragdoll.geom
+        self._limb_geoms = g[self.model.geom_contype[g] != 0]
+        solo = mujoco.MjSpec()
+        solo.compiler.degree = False
+        add_ragdoll(solo, params)
+        self._solo = solo.compile()
+        self._solo_data = mujoco.MjData(self._solo)
+        self._solo_index = RagdollIndex.of(self._solo)
+        if not (np.array_equal(self._solo_index.dof, self.ragdoll.dof)
+                and np.array_equal(self._solo_index.body, self.ragdoll.body)):
+            raise RuntimeError("the ragdoll-only model must number bodies and dofs as the full model")
+
+    def configure(self, params: RagdollParams, pose: np.ndarray, transl: np.ndarray) -> None:
+        """Load one body: its shape-dependent numbers, then its pose (qpos), velocities zero.
+
+        MuJoCo's derived constants (subtree masses, inverse weights, diagonal inertia at qpos0) are
+        recomputed on a ragdoll-only copy of the model, which is exact (the cells are separate trees
+        whose constants never change) and 50x cheaper than ``mj_setConst`` on the whole bed.
+        """
+        m, d, solo, ri = self.model, self.data, self._solo, self.ragdoll
+        write_params(m, ri, params)
+        write_params(solo, self._solo_index, params)
+        mujoco.mj_resetData(m, d)
+        pose_to_qpos(m, ri, params, pose, transl, d.qpos)  # also sets hinge swings
+        solo.body_quat[self._solo_index.body] = m.body_quat[ri.body]
+        mujoco.mj_setConst(solo, self._solo_data)
+        sb, b = self._solo_index.body, ri.body
+        m.body_subtreemass[b] = solo.body_subtreemass[sb]
+        m.body_subtreemass[0] = m.body_mass.sum()
+        m.body_invweight0[b] = solo.body_invweight0[sb]
+        m.dof_invweight0[: self.nv] = solo.dof_invweight0
+        m.dof_M0[: self.nv] = solo.dof_M0
+        m.stat.meaninertia = float(np.mean(m.dof_M0))
+        m.stat.meanmass = float(np.mean(m.body_mass[1:]))
+
+
+def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> mujoco.MjSpec:
+    """The settle model as an MjSpec: the ragdoll first, then the cell bed; implicitfast integrator,
+    Newton solver, pyramidal friction cones."""
+    spec = mujoco.MjSpec()
+    spec.modelname = "settle"
+    spec.compiler.degree = False
+    o = spec.option
+    o.timestep = config.timestep_s
+    o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    o.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    o.cone = _CONES[config.cone]
+    o.iterations = config.iterations
+    o.ls_iterations = config.ls_iterations
+    o.tolerance = config.tolerance
+    o.gravity = [0.0, 0.0, -9.81]
+    add_ragdoll(spec, params, self_collision=config.self_collision, friction=cells.friction,
+                contact_timeconst_s=cells.contact_timeconst_s)
+    add_cells(spec, cells)
+    return spec
+
+
+_MODELS: dict = {}
+
+
+def settle_model(bed: BedSpec, config: SettleConfig, params: RagdollParams) -> SettleModel:
+    """The cached :class:`SettleModel` for (bed, config), compiled with ``params`` the first time."""
+    key = (bed, config)
+    if key not in _MODELS:
+        _MODELS[key] = SettleModel(bed, config, params)
+    return _MODELS[key]
+
+
+def capsule_ends(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex) -> np.ndarray:
+    """(20, 2, 3) world axis-segment ends of the ragdoll's capsules (end 0 at local z = -length/2)."""
+    g = index.geom
+    axis = data.geom_xmat[g].reshape(-1, 3, 3)[:, :, 2]
+    half = model.geom_size[g, 1][:, None]
+    c = data.geom_xpos[g]
+    return np.stack([c - half * axis, c + half * axis], axis=1)
+
+
+def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, limb_geoms: np.ndarray, ragdoll_geoms: set,
+                  tol: float) -> bool:
+    """True if a limb capsule penetrates another capsule deeper than tol (contacts after mj_forward)."""
+    if data.ncon == 0 or len(limb_geoms) == 0:
+        return False
+    geom = data.contact.geom[: data.ncon]
+    dist = data.contact.dist[: data.ncon]
+    both = np.array([a in ragdoll_geoms and b in ragdoll_geoms for a, b in geom])
+    return bool(np.any(both & (dist < -tol)))
+
+
+def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
+           config: SettleConfig | None = None, *, params: RagdollParams | None = None) -> SettleResult:
+    """Rest one body on the bed; see the module docstring for the procedure and rejection causes.
+
+    body: a ``BodyModel``; betas (S,); pose (72,) SMPL axis-angle; transl (3,) m, z-up bed frame
+    (``BodyModel.forward``'s); gender: mass table and mean mass (default the body's); bed: a
+    ``BedSpec`` (default ``get_bed()``); config: :class:`SettleConfig`; params: a precomputed
+    :class:`RagdollParams` for this body and shape (default built here).
+    """
+    bed = get_bed() if bed is None else bed
+    config = SettleConfig() if config is None else config
+    betas = np.asarray(betas, dtype=np.float64)
+    pose = np.asarray(pose, dtype=np.float64)
+    transl = np.asarray(transl, dtype=np.float64)
+    if pose.shape != (72,) or not np.all(np.isfinite(pose)):
+        raise BadInput(f"pose has shape {pose.shape}; expected finite (72,) SMPL axis-angle")
+    if transl.shape != (3,) or not np.all(np.isfinite(transl)):
+        raise BadInput(f"transl has shape {transl.shape}; expected finite (3,) metres")
+    g = body.gender if gender is None else gender
+    if params is None:
+        from pressurepose.body.capsules import capsules_for
+        from pressurepose.body.masses import segment_masses
+
+        caps = capsules_for(body, betas)
+        masses = segment_masses(body, betas, g, voxel=config.mass_voxel_m, caps=caps)
+        params = ragdoll_params(body, betas, g, caps=caps, masses=masses)
+    sm = settle_model(bed, config, params)
+    return _run(sm, params, betas, g, pose, transl)
+
+
+def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str, pose: np.ndarray,
+         transl: np.ndarray) -> SettleResult:
+    cfg, m, d, ri = sm.config, sm.model, sm.data, sm.ragdoll
+    sm.configure(params, pose, transl)
+    nv = sm.nv
+    radius = params.radius
+    # drop: lowest capsule point at the clearance height
+    mujoco.mj_kinematics(m, d)
+    low = (capsule_ends(m, d, ri)[..., 2] - radius[:, None]).min()
+    d.qpos[ri.qpos[0] + 2] += cfg.drop_clearance_m - low
+    mujoco.mj_forward(m, d)
+    start_posture = posture_class(pose)
+    weight = params.total_mass * -m.opt.gravity[2]
+    x_min, x_max, y_min, y_max = sm.cells.bounds
+    ragdoll_geoms = set(ri.geom.tolist())
+
+    ball = ri.ball
+    k_lim = cfg.limit_stiffness_factor * params.stiffness[ball]
+    lim_lo, lim_hi = params.lower[ball], params.upper[ball]
+    lim_on = params.limited[ball] & (k_lim > 0)
+    ball_dof = ri.dof[ball][lim_on]
+    lim_lo, lim_hi, k_lim, ball_on = lim_lo[lim_on], lim_hi[lim_on], k_lim[lim_on], ball[lim_on]
+    ball_qpos = ri.qpos[ball_on][:, None] + np.arange(4)
+
+    status = "not_settled"
+    touch = -1
+    hold = 0
+    prev_ends = prev_vel = None
+    step = 0
+    if _self_overlap(m, d, sm._limb_geoms, ragdoll_geoms, cfg.self_collision_tol_m):
+        status = "self_collision"
+    else:
+        for step in range(1, cfg.max_steps + 1):
+            if len(ball_on):
+                w = quat_to_rotvec(d.qpos[ball_qpos])
+                tau = limit_torques(w, lim_lo, lim_hi, k_lim)
+                for i, a in enumerate(ball_dof):
+                    d.qfrc_applied[a: a + 3] = tau[i]
+            mujoco.mj_step(m, d)
+            ends = capsule_ends(m, d, ri)  # kinematics of the state this step started from
+            if touch < 0:
+                pelvis_low = ends[PELVIS, :, 2].min() - radius[PELVIS]
+                if pelvis_low <= 0.0 or cell_forces(d, sm.cell_index).sum() >= 0.5 * weight:
+                    touch = step
+                elif step % cfg.zero_every == 0:
+                    d.qvel[:nv] = 0.0
+                    prev_ends = prev_vel = None
+                    continue
+            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))) or any(
+                    d.warning[w].number > 0 for w in _WARNINGS):
+                status = "unstable"
+                break
+            com = d.subtree_com[ri.body[0]]
+            if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or (
+                    ends[PELVIS, :, 2].min() - radius[PELVIS] < -cfg.fall_depth_m):
+                status = "fell_off_bed"
+                break
+            if prev_ends is not None:
+                vel = (ends - prev_ends) / cfg.timestep_s
+                speed = np.sqrt((vel**2).sum(-1)).max()
+                if speed > cfg.max_speed_m_s or cell_sink(d, sm.cell_index).min() < -sm.cells.thickness_m:
+                    status = "unstable"
+                    break
+                if prev_vel is not None and touch >= 0:
+                    acc = np.sqrt((((vel - prev_vel) / cfg.timestep_s) ** 2).sum(-1)).max()
+                    hold = hold + 1 if (speed < cfg.rest_speed_m_s and acc < cfg.rest_accel_m_s2) else 0
+                    if hold >= cfg.rest_hold_steps:
+                        status = "settled"
+                        break
+                prev_vel = vel
+            prev_ends = ends
+    mujoco.mj_forward(m, d)  # positions, contacts and forces of the final state
+    out_pose, out_transl = qpos_to_pose(m, ri, params, d.qpos, pose)
+    posture = posture_class(out_pose) if np.all(np.isfinite(out_pose)) else "unknown"
+    if status == "settled" and posture != start_posture:
+        status = "posture_changed"
+    return SettleResult(status=status, pose=out_pose, transl=out_transl, betas=betas.copy(), gender=str(gender),
+                        steps=step, touch_step=touch, capsules=capsule_ends(m, d, ri), radius=radius.copy(),
+                        posture_start=start_posture, posture=posture, mass_kg=params.total_mass,
+                        bed_force_n=float(cell_forces(d, sm.cell_index).sum()),
+                        max_sink_m=float(-cell_sink(d, sm.cell_index).min()))
