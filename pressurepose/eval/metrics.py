@@ -34,16 +34,6 @@ def v2v(pred_verts: np.ndarray, true_verts: np.ndarray) -> np.ndarray:
     return mpjpe(p, t)
 
 
-def group_means(values: np.ndarray, groups: np.ndarray, names: dict | None = None) -> dict:
-    """{group name: (mean, count)} of per-sample ``values`` (N,) by ``groups`` (N,)."""
-    out = {}
-    for g in np.unique(groups):
-        sel = groups == g
-        key = names.get(g, g) if isinstance(names, dict) else g
-        out[key if isinstance(key, str) else int(key)] = (float(np.mean(values[sel])), int(sel.sum()))
-    return out
-
-
 # ---------------------------------------------------------------------------------------- baseline
 def baseline_pose() -> np.ndarray:
     """(72,) SMPL pose of the baseline: supine with the head at row 0, limbs straight, arms along

@@ -1,0 +1,14 @@
+"""PressureNet (paper section 4, appendix B): pressure image + gender -> posed 3D body.
+
+Modules (import from them; this package stays light):
+
+* ``transforms``: blur, Sobel edges, contact map, x2 upsampling, per-image normalisation, input channels
+* ``noise``: the training noise model
+* ``cnn``: the paper's CNN (67,200 features -> 88 outputs for a 128 x 54 input)
+* ``outputs`` / ``rotations``: soft-limited body parameters; root rotation from atan2 pairs (Euler)
+* ``pmr``: differentiable sink-depth, pressure (Q) and contact maps from a mesh
+* ``model``: ``PressureNet`` = Mod1 + Mod2 with the gendered body layer
+* ``losses``: L1 and L2; ``train``: the training loop; ``checkpoint``: safe saving/loading
+* ``infer``: ``estimate(pressure, gender, model) -> Estimate``; ``data``: generated datasets in memory
+* ``commands``: the ``train`` and ``infer`` verbs
+"""

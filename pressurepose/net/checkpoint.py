@@ -54,7 +54,7 @@ def bodies_meta(female: BodyModel, male: BodyModel) -> dict:
     return {g: {"spec": body_spec(b), "identity": b.identity} for g, b in (("female", female), ("male", male))}
 
 
-def _atomic_write(path: Path, write) -> None:
+def atomic_write(path: Path, write) -> None:
     tmp = path.with_name(path.name + ".tmp")
     write(tmp)
     os.replace(tmp, path)
@@ -69,11 +69,11 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
     weights = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix == ".pt":
-        _atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
+        atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
         return path
     path = path.with_suffix(".safetensors")
-    _atomic_write(path, lambda p: save_file(weights, str(p)))
-    _atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(record, indent=1)))
+    atomic_write(path, lambda p: save_file(weights, str(p)))
+    atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(record, indent=1)))
     return path
 
 

@@ -65,7 +65,9 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
                      "betas, pose, joints (JSON and NPZ), meshes and pictures.")
     p.add_argument("pressure_file", metavar="PRESSURE_FILE",
                    help="pressure image(s), mmHg: .npy ((R, C) or (B, R, C)), .csv (one image) or HDF5 (.h5)")
-    p.add_argument("--gender", required=True, help="f or m (one for all images, or comma-separated per image)")
+    p.add_argument("--gender", default=None, help="f or m (one for all images, or comma-separated per image); "
+                                                 "may be left out for an HDF5 file with a 'gender' dataset "
+                                                 "(e.g. a shard of a generated dataset)")
     p.add_argument("--model", default=None, help="trained model (.safetensors with its .json, .pt, or a run folder); "
                                                 "default: the shipped model")
     p.add_argument("--out", required=True, help="output folder")
@@ -75,10 +77,13 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_infer(args) -> int:
-    from pressurepose.net.infer import estimate, load_pressure
+    from pressurepose.net.infer import estimate, load_genders, load_pressure
 
     pressure = load_pressure(args.pressure_file, key=args.key)
-    gender = args.gender.split(",") if "," in args.gender else args.gender
+    if args.gender is None:
+        gender = load_genders(args.pressure_file)
+    else:
+        gender = args.gender.split(",") if "," in args.gender else args.gender
     est = estimate(pressure, gender, model=args.model)
     paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")

@@ -26,9 +26,6 @@ class LoadedData:
     def __len__(self) -> int:
         return int(self.tensors["pressure"].shape[0])
 
-    def subset(self, idx: torch.Tensor) -> "LoadedData":
-        return LoadedData({k: v[idx] for k, v in self.tensors.items()}, self.grid, self.mat, self.partition_names)
-
 
 def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True) -> LoadedData:
     """Read a generated dataset (one directory or a folder of them) into memory (float32 images).

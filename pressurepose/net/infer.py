@@ -138,6 +138,21 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
     return np.asarray(arr, dtype=np.float32)
 
 
+def load_genders(path: str | Path, key: str = "gender") -> list[str]:
+    """Per-image genders stored in an HDF5 file (dataset ``key`` of 'f' / 'm'), e.g. a dataset
+    shard; BadInput when there are none."""
+    path = Path(path)
+    if path.suffix.lower() not in (".h5", ".hdf5"):
+        raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 files can carry genders)")
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        if key not in f:
+            raise BadInput(f"HDF5 file {str(path)!r} has no {key!r} dataset; pass --gender")
+        values = f[key][()]
+    return [v.decode() if isinstance(v, bytes) else str(v) for v in np.atleast_1d(values)]
+
+
 def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> np.ndarray:
     """(B, R, C) float32 from one image (R, C) or a batch; BadInput for a wrong shape, NaN,
     infinite or negative values."""

@@ -3,7 +3,7 @@ import pytest
 import torch
 
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.eval.metrics import (baseline_body, baseline_pose, downsample_points, group_means, mpjpe,
+from pressurepose.eval.metrics import (baseline_body, baseline_pose, downsample_points, mpjpe,
                                        v2v, vertex_point_error)
 from pressurepose.net.pmr import MatGrid
 from tests.net.synth import toy_body
@@ -21,8 +21,6 @@ def test_mpjpe_and_v2v_hand_computed():
     np.testing.assert_allclose(v2v(pred[:, :5], true[:, :5]), [0.05, 0.10])
     with pytest.raises(ValueError):
         v2v(pred[:, :5], true[:, :6])
-    assert group_means(np.array([1.0, 2.0, 4.0]), np.array([0, 1, 1]), {0: "f", 1: "m"}) == {"f": (1.0, 1),
-                                                                                           "m": (3.0, 2)}
 
 
 def test_baseline_is_supine_centred_straight_and_on_the_bed():

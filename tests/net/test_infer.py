@@ -65,6 +65,7 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     np.savetxt(tmp_path / "one.csv", img[0], delimiter=",")
     with h5py.File(tmp_path / "d.h5", "w") as f:
         f["images"] = img
+        f["gender"] = np.array([b"m", b"f"])
     assert main(["infer", str(tmp_path / "batch.npy"), "--gender", "f,m", "--model", str(model_path),
                  "--out", str(tmp_path / "a")]) == 0
     rec = json.loads((tmp_path / "a" / "estimate.json").read_text())["estimates"]
@@ -79,8 +80,10 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert (tmp_path / "b" / "mesh_000.obj").exists() and not (tmp_path / "b" / "estimate_000.png").exists()
     b = json.loads((tmp_path / "b" / "estimate.json").read_text())["estimates"][0]
     np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
-    assert main(["infer", str(tmp_path / "d.h5"), "--key", "images", "--gender", "f", "--model", str(model_path),
-                 "--out", str(tmp_path / "c")]) == 0
+    assert main(["infer", str(tmp_path / "d.h5"), "--key", "images", "--model", str(model_path),
+                 "--out", str(tmp_path / "c")]) == 0  # genders from the file
+    assert [r["gender"] for r in json.loads((tmp_path / "c" / "estimate.json").read_text())["estimates"]] == ["m", "f"]
+    assert main(["infer", str(tmp_path / "one.csv"), "--model", str(model_path), "--out", str(tmp_path / "d")]) == 2
     # bad input: a clear error and exit status 2
     np.save(tmp_path / "nan.npy", np.full((16, 16), np.nan))
     assert main(["infer", str(tmp_path / "nan.npy"), "--gender", "f", "--model", str(model_path),
@@ -90,4 +93,4 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(tmp_path / "nope.pt"),
                  "--out", str(tmp_path / "d")]) == 2
     err = capsys.readouterr().err
-    assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err
+    assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err and "--gender is needed" in err
