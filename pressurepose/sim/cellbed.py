@@ -256,3 +256,33 @@ def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0,
     mujoco.mj_forward(model, data)
     return SinkResult(sink_m=float(half[2] - data.qpos[2]), cell_force=cell_forces(data, index),
                       cell_sink=cell_sink(data, index), cells=window, steps=step, rested=still >= 20)
+
+
+def capsule_sinks(bed: BedSpec, radius_m, length_m, mass_kg, center_xy_m, yaw_rad, *, stiffness_n_m3: float,
+                  cell_m: float | None = None, coupling: bool = True) -> np.ndarray:
+    """Sinks (J,) m of J rigid capsules, each alone on the settle model's cell bed with foundation
+    modulus ``stiffness_n_m3`` (the other arguments as in
+    :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`: (J,) sizes and masses, (J, 2)
+    bed-frame centres, (J,) yaws)."""
+    cells = cell_bed(bed, cell_m, stiffness_n_m3=stiffness_n_m3, coupling=coupling)
+    out = []
+    for r, L, m, xy, yaw in zip(*(np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in
+                                   (radius_m, length_m, mass_kg)), np.atleast_2d(center_xy_m),
+                                np.atleast_1d(yaw_rad)):
+        out.append(rigid_sink(cells, "capsule", (r, L), float(m), xy, float(yaw)).sink_m)
+    return np.array(out)
+
+
+def settle_sink_fn(measurements, bed: BedSpec, cell_m: float | None = None, coupling: bool = True):
+    """``k -> sinks (J,)`` of the measured capsules on the settle model's bed with modulus k (N/m^3):
+    the ``sink_fn`` of :func:`pressurepose.sim.calibrate.fit_settle_stiffness` (appendix A.5).
+    Pass the same ``cell_m`` and ``coupling`` as the :class:`~pressurepose.sim.settle.SettleConfig`
+    that will use the fitted stiffness: the cell size changes how deep a given modulus lets objects sink.
+    """
+    d = measurements
+
+    def sink_fn(k: float) -> np.ndarray:
+        return capsule_sinks(bed, d.radius_m, d.length_m, d.mass_kg, d.center_xy_m, d.yaw_rad,
+                             stiffness_n_m3=k, cell_m=cell_m, coupling=coupling)
+
+    return sink_fn

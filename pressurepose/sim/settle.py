@@ -89,7 +89,7 @@ class SettleConfig:
     coupling: bool = True
     self_collision: bool = True
     limit_stiffness_factor: float = LIMIT_STIFFNESS_FACTOR
-    cone: str = "pyramidal"
+    cone: str = "elliptic"
     iterations: int = 50
     ls_iterations: int = 20
     tolerance: float = 1e-8

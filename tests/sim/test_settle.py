@@ -1,0 +1,248 @@
+"""Physics simulation #1 against known truths: the cell bed's force balance and analytic sinks, a
+settled body's force balance, symmetry, joint limits, mesh agreement, rejections and determinism."""
+
+import numpy as np
+import pytest
+
+from pressurepose.body import BodyModel
+from pressurepose.body.capsules import capsules_for, posed_capsules
+from pressurepose.body.toy import toy_body_arrays
+from pressurepose.errors import BadInput
+from pressurepose.pose.limits import joint_limits
+from pressurepose.pose.root import root_axis_angle, world_rotation
+from pressurepose.sim.bed import get_bed
+from pressurepose.sim.calibrate import fit_settle_stiffness
+from pressurepose.sim.cellbed import cell_bed, rigid_sink, settle_sink_fn
+from pressurepose.sim.posture import posture_class, posture_classes, roll_angle
+from pressurepose.sim.ragdoll import home_pose
+from pressurepose.sim.settle import SettleConfig, settle
+
+G = 9.81
+BED = get_bed()
+FAST = SettleConfig(cell_m=0.057)  # coarser cells than the default: quicker, same physics
+BETAS = np.zeros(10)
+
+
+@pytest.fixture(scope="module")
+def body():
+    return BodyModel(toy_body_arrays())
+
+
+def lying(roll: float = 0.0, yaw: float = 0.0) -> np.ndarray:
+    """Home pose with the root lying at the given roll (0 supine) and yaw."""
+    pose = home_pose()
+    pose[:3] = root_axis_angle(world_rotation(roll, yaw))[0]
+    return pose
+
+
+def centre_transl(body, pose, xy=None) -> np.ndarray:
+    """transl putting the pelvis over bed-frame xy (default the mattress centre)."""
+    x0, x1, y0, y1 = BED.mattress_bounds
+    xy = np.array([(x0 + x1) / 2, (y0 + y1) / 2]) if xy is None else np.asarray(xy, float)
+    _, joints = body.forward(BETAS, pose, np.zeros(3))
+    return np.array([xy[0] - joints[0, 0, 0], xy[1] - joints[0, 0, 1], 0.3])
+
+
+@pytest.fixture(scope="module")
+def supine(body):
+    pose = lying()
+    transl = centre_transl(body, pose)
+    return pose, transl, settle(body, BETAS, pose, transl, "female", BED, FAST)
+
+
+# ------------------------------------------------------------------------------ the bed alone
+
+def _box_on_cells(cells, nx: int, ny: int, mass: float):
+    """A flat box exactly over nx x ny whole cells (1 mm short of their edges), resting."""
+    hx, hy = nx * cells.dx / 2 - 0.001, ny * cells.dy / 2 - 0.001
+    cx, cy = cells.x0 + 15 * cells.dx, cells.y0 + 30 * cells.dy  # on cell corners
+    return rigid_sink(cells, "box", (hx, hy, 0.03), mass, (cx, cy))
+
+
+def test_box_sinks_as_a_winkler_foundation_says():
+    """Uncoupled cells: sink = m g / (k_A A) and the cells carry m g."""
+    cells = cell_bed(BED, coupling=False)
+    m, nx, ny = 20.0, 8, 12
+    res = _box_on_cells(cells, nx, ny, m)
+    assert res.rested
+    analytic = m * G / (cells.stiffness_n_m3 * nx * cells.dx * ny * cells.dy)
+    assert res.cell_force.sum() == pytest.approx(m * G, rel=0.01)
+    loaded = res.cell_force > 1e-3
+    assert loaded.sum() == nx * ny
+    np.testing.assert_allclose(-res.cell_sink[loaded], analytic, rtol=0.01)
+    # the box sits on the cells (MuJoCo's contact adds well under a millimetre)
+    assert res.sink_m == pytest.approx(analytic, abs=5e-4)
+
+
+def test_box_on_coupled_cells_matches_the_discrete_solution():
+    """Coupled cells: the sink of a rigid flat punch on the spring grid, solved directly."""
+    cells = cell_bed(BED)
+    m, nx, ny = 20.0, 8, 12
+    res = _box_on_cells(cells, nx, ny, m)
+    w = res.cells
+    n = w.nx * w.ny
+    idx = np.arange(n).reshape(w.ny, w.nx)
+    K = np.eye(n) * w.k_cell
+    for a, b, k in ((idx[:, :-1], idx[:, 1:], w.coupling_x), (idx[:-1], idx[1:], w.coupling_y)):
+        for i, j in zip(a.ravel(), b.ravel()):
+            K[i, i] += k
+            K[j, j] += k
+            K[i, j] -= k
+            K[j, i] -= k
+    covered = (res.cell_force > 1e-3).ravel()
+    assert covered.sum() == nx * ny
+    free = ~covered
+    u_free = -np.linalg.solve(K[np.ix_(free, free)], K[np.ix_(free, covered)] @ np.ones(covered.sum()))
+    punch = (K[np.ix_(covered, covered)] @ np.ones(covered.sum()) + K[np.ix_(covered, free)] @ u_free).sum()
+    expected = m * G / punch
+    assert res.cell_force.sum() == pytest.approx(m * G, rel=0.01)
+    np.testing.assert_allclose(-res.cell_sink.ravel()[covered], expected, rtol=0.01)
+    # coupling spreads the load: the bed is stiffer than the plain Winkler one
+    assert w.coupling_x > 0 and expected < 0.99 * m * G / (w.stiffness_n_m3 * nx * w.dx * ny * w.dy)
+
+
+def test_capsule_sink_grows_with_weight():
+    cells = cell_bed(BED)
+    light = rigid_sink(cells, "capsule", (0.05, 0.2), 2.0, (0.4, 0.9), 0.3)
+    heavy = rigid_sink(cells, "capsule", (0.05, 0.2), 8.0, (0.4, 0.9), 0.3)
+    assert light.rested and heavy.rested
+    assert 0 < light.sink_m < heavy.sink_m < 0.05
+    assert heavy.cell_force.sum() == pytest.approx(8.0 * G, rel=0.01)
+
+
+def test_settle_stiffness_fit_recovers_a_hidden_stiffness():
+    """Appendix A.5: 'measure' capsule sinks at a hidden modulus, fit it back with the sink function."""
+
+    class Measured:  # the fields of calibration_data.CapsuleMeasurements that the fit reads
+        radius_m = np.array([0.06])
+        length_m = np.array([0.25])
+        mass_kg = np.array([5.0])
+        center_xy_m = np.array([[0.4, 0.9]])
+        yaw_rad = np.array([0.0])
+
+    sink_fn = settle_sink_fn(Measured, BED, cell_m=0.04)
+    hidden = 8.0e4
+    measured = sink_fn(hidden)
+    fit = fit_settle_stiffness(measured, sink_fn, bounds=(1e4, 1e6), xtol=1e-3)
+    assert fit.stiffness == pytest.approx(hidden, rel=0.02)
+
+
+def test_bad_bed_objects_are_rejected():
+    cells = cell_bed(BED)
+    with pytest.raises(BadInput):
+        rigid_sink(cells, "sphere", (0.1,), 1.0)
+    with pytest.raises(BadInput):
+        rigid_sink(cells, "box", (0.1, -0.1, 0.1), 1.0)
+    with pytest.raises(BadInput):
+        rigid_sink(cells, "capsule", (0.1, 0.2), 1.0, (5.0, 5.0))  # off the bed
+    with pytest.raises(BadInput):
+        cell_bed(BED, cell_m=-0.01)
+    with pytest.raises(BadInput):
+        cell_bed(BED, stiffness_n_m3=0.0)
+
+
+# ------------------------------------------------------------------------------ settling a body
+
+def test_supine_body_rests_in_place_and_the_bed_carries_its_weight(supine):
+    pose, transl, res = supine
+    assert res.status == "settled", res.status
+    assert res.touch_step > 0 and res.steps < FAST.max_steps
+    assert res.bed_force_n == pytest.approx(res.mass_kg * G, rel=0.01)
+    assert np.linalg.norm(res.transl[:2] - transl[:2]) < 0.01  # no drift
+    assert abs(roll_angle(res.pose) - roll_angle(pose)) < np.deg2rad(2)  # no roll
+    assert res.posture_start == res.posture == "supine"
+    assert 0.0 < res.max_sink_m < 0.1
+    # left and right limbs rest at the same heights
+    z = res.capsules[..., 2].mean(-1)
+    for left, right in ((1, 2), (4, 5), (7, 8), (14, 15), (16, 17), (18, 19)):
+        assert z[left] == pytest.approx(z[right], abs=0.005)
+
+
+def test_resting_pose_puts_the_mesh_capsules_on_the_ragdoll(body, supine):
+    _, _, res = supine
+    caps = capsules_for(body, BETAS)
+    ends, radius = posed_capsules(body, caps, BETAS, res.pose[None], res.transl[None])
+    np.testing.assert_allclose(ends[0], res.capsules, atol=1e-6)
+    np.testing.assert_allclose(radius, res.radius)
+
+
+def test_joint_limits_hold_legs_hanging_over_the_foot_end(body):
+    """Hips at the foot edge: the legs hang down until the hip's extension limit stops them."""
+    pose = lying()
+    _, joints = body.forward(BETAS, pose, np.zeros(3))
+    x0, x1, y0, y1 = BED.mattress_bounds
+    hip_y = joints[0, 1, 1]
+    transl = np.array([(x0 + x1) / 2 - joints[0, 0, 0], y1 - 0.03 - hip_y, 0.3])
+    res = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    assert res.status == "settled", res.status
+    lim = joint_limits()
+    p = res.pose.reshape(24, 3)
+    for hip in (1, 2):  # hip extension (x) is at its limit, within a degree
+        assert p[hip, 0] == pytest.approx(lim.upper[hip, 0], abs=np.deg2rad(1.0))
+    for knee in (4, 5):  # the calves hang from hinges, inside their range
+        assert lim.lower[knee, 0] <= p[knee, 0] <= lim.upper[knee, 0]
+        assert p[knee, 0] > np.deg2rad(10)
+    inside = (p[1:] >= lim.lower[1:] - np.deg2rad(1.0)) & (p[1:] <= lim.upper[1:] + np.deg2rad(1.0))
+    assert np.all(inside[lim.limited[1:]])
+
+
+def test_body_dropped_beside_the_bed_falls_off(body):
+    pose = lying()
+    x0, x1, y0, y1 = BED.mattress_bounds
+    res = settle(body, BETAS, pose, centre_transl(body, pose, (x1 + 0.1, (y0 + y1) / 2)), "female", BED, FAST)
+    assert res.status == "fell_off_bed"
+
+
+def test_limb_inside_the_body_at_start_is_rejected(body):
+    pose = lying()
+    pose[3 * 16 + 2] = -2.0  # the left arm swung down through the hip
+    res = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED, FAST)
+    assert res.status == "self_collision"
+    assert res.steps == 0
+
+
+def test_lateral_body_with_straight_limbs_rolls_and_is_rejected(body):
+    """Lying on its side with arms and legs straight, the capsule body rolls onto its front."""
+    pose = lying(np.pi / 2)
+    res = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED, FAST)
+    assert res.posture_start == "left_lateral"
+    assert res.status == "posture_changed" and res.posture != "left_lateral"
+
+
+def test_settle_is_deterministic_whatever_ran_before(body, supine):
+    pose, transl, first = supine
+    other = lying(np.pi, 0.3)
+    settle(body, BETAS + 1.0, other, centre_transl(body, other), "male", BED, FAST)
+    again = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    assert again.steps == first.steps and again.status == first.status
+    np.testing.assert_array_equal(again.pose, first.pose)
+    np.testing.assert_array_equal(again.transl, first.transl)
+    np.testing.assert_array_equal(again.capsules, first.capsules)
+
+
+def test_bad_settle_inputs_are_rejected(body):
+    pose = lying()
+    t = centre_transl(body, pose)
+    with pytest.raises(BadInput):
+        settle(body, BETAS, pose[:69], t, "female", BED, FAST)
+    with pytest.raises(BadInput):
+        settle(body, BETAS, pose, np.array([0.0, np.nan, 0.0]), "female", BED, FAST)
+    for bad in ({"max_steps": 0}, {"rest_speed_m_s": -1.0}, {"cone": "round"}, {"timestep_s": float("nan")}):
+        with pytest.raises(BadInput):
+            SettleConfig(**bad)
+
+
+# ------------------------------------------------------------------------------ posture classes
+
+def test_posture_classes_from_the_root():
+    rolls = np.array([0.0, 0.4, 1.4, np.pi / 2, 2.0, np.pi, -np.pi + 0.3, -np.pi / 2, -0.6])
+    poses = np.zeros((len(rolls), 72))
+    for i, r in enumerate(rolls):
+        poses[i] = lying(r, yaw=0.4 * (-1) ** i)
+    expected = ["supine", "supine", "left_lateral", "left_lateral", "left_lateral", "prone", "prone",
+                "right_lateral", "supine"]
+    assert list(posture_classes(poses)) == expected
+    np.testing.assert_allclose(roll_angle(poses), np.angle(np.exp(1j * rolls)), atol=1e-9)
+    assert posture_class(poses[3]) == "left_lateral"
+    with pytest.raises(BadInput):
+        posture_class(np.zeros(5))
