@@ -19,6 +19,7 @@ import torch
 
 from pressurepose.errors import BadInput
 from pressurepose.net.model import GENDER_CODES, PressureNet
+from pressurepose.net.pmr import MatGrid
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.safetensors"
 
@@ -30,7 +31,8 @@ class Estimate:
     betas (B, 10); pose (B, 72) SMPL axis-angle (root first); transl (B, 3); joints (B, 24, 3);
     vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
     reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
-    gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference.
+    gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
+    model's mat.
     """
 
     betas: np.ndarray
@@ -44,6 +46,7 @@ class Estimate:
     contact: np.ndarray
     gender: list[str]
     mod1_joints: np.ndarray
+    grid: MatGrid
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
@@ -80,15 +83,17 @@ class Estimate:
 
 
 def figure(est: Estimate, i: int = 0):
-    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from above."""
+    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from below
+    through the mat (laid out like the images: row 0 / the head end at the top)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
 
     from pressurepose.viz.mesh import draw_mesh
 
-    fig, axes = plt.subplots(1, 3, figsize=(10, 6))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 6))
     for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
                                  (axes[1], est.q[i], "reconstructed map Q (PMR)", "mm sink")):
         im = ax.imshow(img, cmap="magma", interpolation="nearest")
@@ -97,10 +102,13 @@ def figure(est: Estimate, i: int = 0):
         ax.set_xticks([])
         ax.set_yticks([])
     ax = axes[2]
-    draw_mesh(ax, est.vertices[i], est.faces, view="top")
+    w, length = est.grid.size_m
+    ax.add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5", label="mat"))
+    draw_mesh(ax, est.vertices[i], est.faces, view="below")
     j = est.joints[i]
-    ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red")
-    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'})")
+    ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red", label="joints")
+    ax.legend(loc="lower right", fontsize=7)
+    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
     ax.set_xlabel("x across the bed (m)")
     ax.set_ylabel("-y along the bed (m)")
     fig.tight_layout()
@@ -239,4 +247,4 @@ def estimate(pressure, gender, model=None, batch_size: int = 64) -> Estimate:
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
-                    gender=genders, mod1_joints=cat(lambda a, b: a.joints))
+                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid)

@@ -3,13 +3,15 @@
 Convention (bed frame: x across the bed, y along it toward the foot, z up), angles (roll, pitch,
 yaw) in radians; the body's world rotation is
 
-    W = R_z(yaw) @ R_x(pitch) @ R_y(roll) @ W0
+    W = R_z(yaw) @ R_x(pitch) @ R_y(-roll) @ W0
 
 W0 lays the standing rest body (z-up, facing -y) supine with its head at row 0: it maps
-x -> -x, y -> -z, z -> -y (180 deg about (0, 1, -1)/sqrt 2). ``roll`` turns the body about the
-bed's long axis (0 supine, +-pi prone, +-pi/2 lateral), ``pitch`` tilts the head up or down,
-``yaw`` turns the body in the bed's plane. The middle angle is the pitch, which is 0 in the data
-(REFERENCE section 3), so the convention is far from its gimbal lock at pitch = +-pi/2.
+x -> -x, y -> -z, z -> -y (180 deg about (0, 1, -1)/sqrt 2). ``roll`` is a right-handed turn about
+the body's head direction -y (0 supine, +pi/2 on the left side, -pi/2 on the right side, +-pi
+prone), ``pitch`` tilts the head up or down, ``yaw`` turns the body in the bed's plane
+(counter-clockwise seen from above). With pitch 0 this is exactly the pose sampler's (roll, yaw)
+(:mod:`pressurepose.pose.root`). The middle angle is the pitch, which is 0 in the data (REFERENCE
+section 3), so the convention is far from its gimbal lock at pitch = +-pi/2.
 
 SMPL's root parameter r rotates the y-up model; the body layer turns its output by the fixed
 Q = Y_UP_TO_Z_UP, so R(r) = Q^T W Q. Everything goes through unit quaternions (w, x, y, z) and is
@@ -62,7 +64,7 @@ def euler_to_world_quat(euler: torch.Tensor) -> torch.Tensor:
     """Quaternion (..., 4) of W for bed-frame Euler angles (..., 3) = (roll, pitch, yaw)."""
     roll, pitch, yaw = euler.unbind(-1)
     q0 = torch.tensor(Q_W0, dtype=euler.dtype, device=euler.device).expand(roll.shape + (4,))
-    q = quat_mul(_axis_quat(roll, 1), q0)
+    q = quat_mul(_axis_quat(-roll, 1), q0)
     q = quat_mul(_axis_quat(pitch, 0), q)
     return quat_mul(_axis_quat(yaw, 2), q)
 

@@ -8,6 +8,7 @@ from pressurepose.net.cnn import NUM_OUTPUTS, PressureCNN, flattened_size
 from pressurepose.net.outputs import (ANATOMICAL_RANGES_DEG, OutputConfig, OutputLayer,
                                       network_joint_ranges, sampled_joint_limits)
 from pressurepose.net.rotations import euler_to_root_axis_angle, pairs_to_euler
+from pressurepose.pose.root import world_rotation
 
 torch.set_num_threads(1)
 
@@ -123,8 +124,12 @@ def test_root_euler_convention():
     R = batch_rodrigues(r).numpy()
     Q = Y_UP_TO_Z_UP
     for e, Rs in zip(eulers, R):
-        W = _rz(e[2]) @ _rx(e[1]) @ _ry(e[0]) @ W0
+        W = _rz(e[2]) @ _rx(e[1]) @ _ry(-e[0]) @ W0
         np.testing.assert_allclose(Q @ Rs @ Q.T, W, atol=1e-12)
+    # with pitch 0: the pose sampler's (roll, yaw) convention
+    e0 = torch.tensor([[0.7, 0.0, -0.3], [-2.0, 0.0, 0.5]], dtype=torch.float64)
+    Rs0 = np.einsum("ij,bjk,lk->bil", Q, batch_rodrigues(euler_to_root_axis_angle(e0)).numpy(), Q)
+    np.testing.assert_allclose(Rs0, world_rotation(e0[:, 0].numpy(), e0[:, 2].numpy()), atol=1e-12)
     # supine: the rest body's head (+z) points to -y (row 0), its front (-y) points up
     np.testing.assert_allclose(W0 @ [0, 0, 1], [0, -1, 0])
     np.testing.assert_allclose(W0 @ [0, -1, 0], [0, 0, 1])
