@@ -25,6 +25,14 @@ from pressurepose.net.transforms import InputConfig, input_channels, map_channel
 GENDER_CODES = {"f": 0, "female": 0, "m": 1, "male": 1}
 
 
+def full_precision(device: torch.device):
+    """A context that turns autocast off: the input transforms, body layer and PMR run in float32
+    even inside a mixed-precision training step (only the CNNs run in half precision)."""
+    if device.type in ("cuda", "cpu"):
+        return torch.autocast(device.type, enabled=False)
+    return contextlib.nullcontext()
+
+
 @dataclass(frozen=True)
 class NetConfig:
     """Everything that fixes a PressureNet's architecture and meaning; stored with checkpoints.
@@ -87,8 +95,7 @@ class GenderedBody(nn.Module):
 
     def forward(self, params: BodyParams, gender: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Vertices (B, V, 3) and joints (B, 24, 3) in float32 (outside any autocast)."""
-        dev = params.betas.device
-        with torch.autocast(dev.type, enabled=False) if dev.type in ("cuda", "cpu") else contextlib.nullcontext():
+        with full_precision(params.betas.device):
             args = dict(betas=params.betas.float(), body_pose=params.body_pose.float(),
                         global_orient=params.global_orient.float(), transl=params.transl.float())
             if len(self.layers) == 1:
@@ -144,7 +151,9 @@ class PressureNet(nn.Module):
 
     def pose_body(self, params: BodyParams, gender: torch.Tensor, maps: bool) -> ModuleOutput:
         verts, joints = self.body(params, gender)
-        return ModuleOutput(params, verts, joints, pmr(verts, self.config.grid, self.config.pmr) if maps else None)
+        with full_precision(verts.device):
+            m = pmr(verts, self.config.grid, self.config.pmr) if maps else None
+        return ModuleOutput(params, verts, joints, m)
 
     def run_mod1(self, x1: torch.Tensor, gender: torch.Tensor, maps: bool = True) -> ModuleOutput:
         """Mod1 on its input channels x1 (B, K1, H, W)."""
@@ -156,7 +165,8 @@ class PressureNet(nn.Module):
             return x1
         m = out1.maps if out1.maps is not None else pmr(out1.vertices, self.config.grid, self.config.pmr)
         extra = torch.stack([m.q, m.contact], 1).detach()
-        return torch.cat([x1, map_channels(extra, self.config.inputs).to(x1.dtype)], 1)
+        with full_precision(x1.device):
+            return torch.cat([x1, map_channels(extra.float(), self.config.inputs).to(x1.dtype)], 1)
 
     def run_mod2(self, x1: torch.Tensor, gender: torch.Tensor, out1: ModuleOutput, maps: bool = True) -> ModuleOutput:
         """Mod2 refining ``out1`` (its parameters are the base of Mod2's residuals, no gradient)."""
@@ -166,7 +176,8 @@ class PressureNet(nn.Module):
     def inputs(self, pressure: torch.Tensor, contact: torch.Tensor | None = None,
                blur_sigma: torch.Tensor | None = None) -> torch.Tensor:
         """Mod1's input channels from pressure images (B, R, C) (see ``transforms.input_channels``)."""
-        return input_channels(pressure, self.config.inputs, contact=contact, blur_sigma=blur_sigma)
+        with full_precision(pressure.device):
+            return input_channels(pressure.float(), self.config.inputs, contact=contact, blur_sigma=blur_sigma)
 
     def forward(self, pressure: torch.Tensor, gender: torch.Tensor) -> tuple[ModuleOutput, ModuleOutput]:
         """Both modules' estimates for clean pressure images (B, R, C) and genders (B,)."""

@@ -119,3 +119,20 @@ def test_losses_against_hand_computed_values():
     sc = dataset_scales(j, torch.tensor([[1.0] * 10, [-1.0] * 10]), torch.tensor([0.0, 2.0]), None)
     assert abs(sc.joints_m - (1 / 3) ** 0.5) < 1e-9 and abs(sc.betas - (20 / 19) ** 0.5) < 1e-9
     assert abs(sc.q - 2 ** 0.5) < 1e-9 and sc.contact == 1.0
+
+
+def test_mixed_precision_keeps_geometry_in_float32():
+    # what a CUDA training step does, here with CPU autocast (bfloat16)
+    data = toy_dataset(2, grid=GRID)
+    net = PressureNet(_config(), gendered_body(*_bodies()))
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        x1 = net.inputs(data["pressure"])
+        out1 = net.run_mod1(x1, data["gender"])
+        out2 = net.run_mod2(x1, data["gender"], out1)
+        assert net.mod1.cnn(x1).dtype == torch.bfloat16  # the CNN does run in half precision
+        loss, _ = loss_l2(out2, data["joints"], data["betas"], torch.zeros(2, 20, 16), torch.zeros(2, 20, 16),
+                          LossScales())
+    assert x1.dtype == torch.float32 and out1.vertices.dtype == torch.float32
+    assert out2.maps.q.dtype == torch.float32 and out2.params.betas.dtype == torch.float32
+    loss.backward()
+    assert all(torch.isfinite(p.grad).all() for p in net.mod2.parameters())
