@@ -63,7 +63,7 @@ def model_bodies(bed, count: int):
         name = list(rolls)[i % 3]
         betas = rng.uniform(-2, 2, body.num_betas) if i >= 3 else np.zeros(body.num_betas)
         limbs = rng.normal(0, 0.1, 3 * body.num_joints) if i >= 3 else None
-        v, f = supine_body_mesh(body, bed, betas, pose_offset=limbs)
+        v, f, _ = supine_body_mesh(body, bed, betas, pose_offset=limbs)
         c, s = np.cos(rolls[name]), np.sin(rolls[name])
         centre = (v.max(0) + v.min(0)) / 2
         v = (v - centre) @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]).T + centre  # roll about the bed's axis

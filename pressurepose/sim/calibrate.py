@@ -287,11 +287,12 @@ def targets_loss(result: PressResult, targets: PhysicalTargets) -> float:
 
 
 def supine_body_mesh(body, bed: BedSpec, betas=None, arm_drop_rad: float = 1.3, pose_offset=None):
-    """An SMPL-format ``body`` (a BodyModel) lying supine on the bed, arms lowered to its sides by
-    ``arm_drop_rad`` at the shoulders, centred on the sensing area with its lowest point at z = 0.
+    """An SMPL-format ``body`` (a BodyModel) lying supine on the bed, arms lowered toward its sides
+    by ``arm_drop_rad`` at the shoulders, centred on the sensing area with its lowest point at z = 0.
 
-    Head toward row 0, face up. ``pose_offset`` (72,) is added to the joint angles (its first
-    three values, the root, are ignored). Returns (vertices (V, 3) bed frame, faces (F, 3)).
+    Head toward row 0, face up, the body's left toward -x. ``pose_offset`` (72,) is added to the
+    joint angles (its first three values, the root, are ignored). Returns vertices (V, 3) and
+    faces (F, 3) of the mesh and its joints (24, 3), bed frame.
     """
     from pressurepose.body.joints import joint_index
 
@@ -300,15 +301,15 @@ def supine_body_mesh(body, bed: BedSpec, betas=None, arm_drop_rad: float = 1.3, 
     if pose_offset is not None:
         pose[3:] = np.asarray(pose_offset, dtype=np.float64)[3:]
     # SMPL's own joint frames (y up, z forward): turning the left arm (+x) about -z lowers it
-    pose[3 * joint_index("left_shoulder") + 2] = -arm_drop_rad
-    pose[3 * joint_index("right_shoulder") + 2] = arm_drop_rad
-    verts, _ = body.forward(betas, pose)
+    pose[3 * joint_index("left_shoulder") + 2] -= arm_drop_rad
+    pose[3 * joint_index("right_shoulder") + 2] += arm_drop_rad
+    verts, joints = body.forward(betas, pose)
     # project frame (z up, facing -y, left +x) -> bed: head toward -y, face up (+z)
     rot = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, -1.0, 0.0]])
-    v = verts[0] @ rot.T
+    v, j = verts[0] @ rot.T, joints[0] @ rot.T
     centre = (v.max(0) + v.min(0)) / 2
-    v += np.array([bed.mat.width_m / 2 - centre[0], bed.mat.length_m / 2 - centre[1], -v[:, 2].min()])
-    return v, np.asarray(body.faces)
+    shift = np.array([bed.mat.width_m / 2 - centre[0], bed.mat.length_m / 2 - centre[1], -v[:, 2].min()])
+    return v + shift, np.asarray(body.faces), j + shift
 
 
 def calibrate_targets(vertices, faces, targets: PhysicalTargets = DEFAULT_TARGETS, bed: BedSpec | None = None,

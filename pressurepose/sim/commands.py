@@ -57,7 +57,7 @@ def run_calibrate(args) -> int:
 
         bed = get_bed(args.mat)
         body = BodyModel(args.body)
-        verts, faces = cal.supine_body_mesh(body, bed)
+        verts, faces, _ = cal.supine_body_mesh(body, bed)
         res = cal.calibrate_targets(verts, faces, cal.DEFAULT_TARGETS, bed, fit=fit or ("stiffness", "spread"),
                                     **common)
         t = cal.DEFAULT_TARGETS

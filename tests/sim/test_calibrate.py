@@ -217,18 +217,17 @@ def test_supine_body_lies_head_first_face_up():
 
     body = BodyModel(toy_body_arrays())
     bed = get_bed()
-    v, f = supine_body_mesh(body, bed, arm_drop_rad=0.0)
+    v, f, j = supine_body_mesh(body, bed, arm_drop_rad=0.0)
     assert v[:, 2].min() == pytest.approx(0.0, abs=1e-12)
     np.testing.assert_allclose((v.max(0) + v.min(0))[:2] / 2, [bed.mat.width_m / 2, bed.mat.length_m / 2])
-    # the same map applied to the joints: head toward row 0, body's left toward -x, front up
+    idx = {n: JOINT_NAMES.index(n) for n in ("head", "pelvis", "left_ankle", "left_wrist", "right_wrist", "neck")}
+    assert j[idx["head"], 1] < j[idx["pelvis"], 1] < j[idx["left_ankle"], 1]  # head toward row 0
+    assert j[idx["left_wrist"], 0] < j[idx["right_wrist"], 0]                 # body's left toward -x
+    # face up: the toy's neck box leans forward (-y in its own frame), so the head sits above the neck
     _, joints = body.forward(np.zeros(body.num_betas), np.zeros(72))
-    rot = np.array([[-1.0, 0, 0], [0, 0, -1.0], [0, -1.0, 0]])
-    j = joints[0] @ rot.T
-    idx = {n: JOINT_NAMES.index(n) for n in ("head", "pelvis", "left_ankle", "left_wrist", "right_wrist")}
-    assert j[idx["head"], 1] < j[idx["pelvis"], 1] < j[idx["left_ankle"], 1]
-    assert j[idx["left_wrist"], 0] < j[idx["right_wrist"], 0]
-    assert np.linalg.det(rot) == pytest.approx(1.0)
-    lowered, _ = supine_body_mesh(body, bed)  # arms at the sides: narrower across the bed
+    forward = joints[0, idx["head"]] - joints[0, idx["neck"]]
+    assert np.sign(j[idx["head"], 2] - j[idx["neck"], 2]) == np.sign(-forward[1])
+    lowered, _, _ = supine_body_mesh(body, bed)  # arms at the sides: narrower across the bed
     assert np.ptp(lowered[:, 0]) < 0.6 * np.ptp(v[:, 0])
 
 

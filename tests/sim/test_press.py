@@ -10,6 +10,7 @@ import scipy.sparse.linalg as spl
 import trimesh
 from matplotlib.path import Path
 
+from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import DEPTH_EMPTY_M, GRAVITY, PressFailed, get_bed, press
 from pressurepose.sim.foundation import PasternakFoundation, rigid_jacobian, solve_pasternak, solve_winkler
@@ -354,3 +355,47 @@ def test_bodies_without_equilibrium_fail_clearly():
 
 def _mesh(m):
     return np.asarray(m.vertices), np.asarray(m.faces)
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+def test_supine_and_prone_bodies_touch_where_anatomy_says():
+    from pressurepose.body import BodyModel
+    from pressurepose.body.joints import JOINT_NAMES
+    from pressurepose.sim.calibrate import supine_body_mesh
+
+    bed = get_bed()
+    body = BodyModel("female")
+    v, f, joints = supine_body_mesh(body, bed)
+    j = {n: joints[JOINT_NAMES.index(n)] for n in JOINT_NAMES}
+
+    def load_near(res, point, radius=0.06):
+        """Newtons on the taxels within ``radius`` (m) of a point's footprint."""
+        d = np.linalg.norm(bed.taxel_centers() - point[:2], axis=-1)
+        return res.force[d < radius].sum()
+
+    supine = press(v, f, 62.5, bed)
+    weight = 62.5 * GRAVITY
+    centre = (v.max(0) + v.min(0)) / 2
+    turn = np.diag([-1.0, 1.0, -1.0])  # prone: the same body turned over about the bed's long axis
+    prone_v = (v - centre) @ turn.T + centre
+    prone_v[:, 2] -= prone_v[:, 2].min()
+    joints_p = (joints - centre) @ turn.T + centre
+    jp = {n: joints_p[JOINT_NAMES.index(n)] for n in JOINT_NAMES}
+    prone = press(prone_v, f, 62.5, bed)
+
+    def on_back(name, radius=0.06):
+        return load_near(supine, j[name], radius)
+
+    def on_front(name, radius=0.06):
+        return load_near(prone, jp[name], radius)
+
+    # supine: the back of the head, the shoulder blades, sacrum and buttocks, the calves carry it
+    assert on_back("head", 0.08) > 0
+    assert on_back("pelvis") + on_back("left_hip") > 0.1 * weight
+    calf = (j["left_knee"] + j["left_ankle"]) / 2
+    assert load_near(supine, calf, 0.06) > 0.005 * weight
+    # back against front: shoulder blades and buttocks press supine, chest and toes prone
+    assert on_back("left_collar") > 3 * on_front("left_collar")
+    assert on_back("left_hip") > 1.5 * on_front("left_hip")
+    assert on_front("spine2") > 2 * on_back("spine2")
+    assert on_front("left_foot") > 0.02 * weight > 100 * on_back("left_foot")  # toes point up when supine
