@@ -1,0 +1,76 @@
+"""Settings of the pose sampler, and the default bed layout it places bodies on."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+
+# BodiTrak BT-3510 sensing area (64 x 27 taxels at 28.6 mm) centred on a twin XL mattress (39 x 80 in),
+# in the bed frame: the same outline as pressurepose.sim.bed.BedSpec().mattress_bounds
+_SENSE_W, _SENSE_L = 27 * 0.0286, 64 * 0.0286
+_MAT_W, _MAT_L = 39 * 0.0254, 80 * 0.0254
+DEFAULT_MATTRESS = (-(_MAT_W - _SENSE_W) / 2, (_MAT_W + _SENSE_W) / 2, -(_MAT_L - _SENSE_L) / 2,
+                    (_MAT_L + _SENSE_L) / 2)
+DEFAULT_SENSING = (0.0, _SENSE_W, 0.0, _SENSE_L)
+
+
+def mattress_outline(bed) -> tuple[float, float, float, float]:
+    """(x_min, x_max, y_min, y_max) of a ``pressurepose.sim.bed.BedSpec``'s mattress, bed frame, m."""
+    return tuple(float(v) for v in bed.mattress_bounds)
+
+
+@dataclass(frozen=True)
+class SamplerConfig:
+    """Settings of the sampler (metres, radians).
+
+    beta_range: betas ~ U(-beta_range, beta_range). yaw_max: yaw ~ U(-yaw_max, yaw_max) (the public
+    code's pi/6; the paper's table says pi/3). shift_max: pelvis offset from the mattress centre,
+    U(-shift_max, shift_max) across and along. height_band: allowed |distal - proximal| height.
+    max_limb_sink: how far a limb capsule may reach below the surface the body lies on (0.05 m: the
+    trunk sinks up to ~6.5 cm into the foam and a lightly loaded limb ~1.5-2 cm, REFERENCE section 5,
+    so a limb this much lower is pressed into the mattress by the settling trunk instead of lifting
+    and rolling it). clearance: start height of the lowest capsule surface above the mattress.
+    mattress: (x_min, x_max, y_min, y_max) outline in the bed frame (for limbs_on_bed and the centre).
+    candidates_per_round: limb candidates drawn per body in a first round, doubling each further
+    round up to 64 times (a speed knob; it changes which samples a seed gives). off_bed_patience, bin_patience, max_bin_redraws, cross_patience,
+    collision_patience: see the module docstring.
+    """
+
+    beta_range: float = 3.0
+    yaw_max: float = math.pi / 6
+    shift_max: float = 0.2
+    height_band: float = 0.2
+    max_limb_sink: float = 0.05
+    clearance: float = 0.015
+    mattress: tuple[float, float, float, float] = DEFAULT_MATTRESS
+    candidates_per_round: int = 64
+    off_bed_patience: int = 20
+    bin_patience: int = 5000
+    max_bin_redraws: int = 8
+    cross_patience: int = 20
+    collision_patience: int = 20
+
+    def __post_init__(self):
+        for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance"):
+            v = getattr(self, f)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
+        for f in ("candidates_per_round", "off_bed_patience", "bin_patience", "max_bin_redraws",
+                  "cross_patience", "collision_patience"):
+            v = getattr(self, f)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise BadInput(f"sampler {f} is {v!r}; expected a whole number >= 1")
+        m = tuple(float(v) for v in self.mattress)
+        if len(m) != 4 or not all(math.isfinite(v) for v in m) or not (m[0] < m[1] and m[2] < m[3]):
+            raise BadInput(f"sampler mattress is {self.mattress!r}; expected (x_min, x_max, y_min, y_max) "
+                           f"with x_min < x_max and y_min < y_max, metres")
+        object.__setattr__(self, "mattress", m)
+
+    @property
+    def mattress_centre(self) -> np.ndarray:
+        x0, x1, y0, y1 = self.mattress
+        return np.array([(x0 + x1) / 2, (y0 + y1) / 2])

@@ -1,0 +1,113 @@
+"""Rejection sampler of initial bodies on the bed (paper section 3 and appendix A.1).
+
+For each body: betas ~ U(-3, 3)^10; the root's roll from the partition, yaw ~ U(-pi/6, pi/6), pitch
+0 (see :mod:`pressurepose.pose.root`); the pelvis over the mattress centre shifted by U(-0.2, 0.2) m
+across and along the bed; one Cartesian bin per limb drawn uniformly from the partition's bins.
+Then each limb (left leg, right leg, left arm, right arm) redraws its joint angles uniformly within
+the joint limits until its candidate passes, in this order (the first failure names the cause):
+
+``height``        the distal joint (ankle, wrist) is within +-0.2 m of the proximal joint's height
+                  (hip, shoulder; hands-behind-head: 0-0.4 m below the shoulder);
+``bin``           the distal joint lies in the limb's bin (:mod:`pressurepose.pose.partitions`);
+``into_bed``      no capsule of the limb reaches more than ``max_limb_sink`` below the surface the
+                  body lies on: the lowest point of the trunk (pelvis, spine, spine1, spine2),
+                  shoulder and thigh capsules with the limbs at rest. A limb pointing into the bed
+                  would carry the falling body and roll it (lateral and prone roots especially);
+``off_mattress``  with ``limbs_on_bed``, the limb's elbow, wrist, hand / knee, ankle, foot joints lie
+                  inside the mattress outline;
+``not_behind_head`` hands-behind-head only: the wrist is medial to its shoulder and within
+                  ``Partition.wrist_to_head`` of the head joint;
+``limb_collision`` the limb's checked capsules penetrate the trunk, neck, head or the limb's own
+                  non-adjacent capsules (the self-collision pairs a limb decides alone, tested here
+                  so that a colliding limb does not cost a redraw of the others).
+
+With ``limbs_on_bed``, a bin is redrawn after ``off_bed_patience`` candidates in it fell off the
+mattress (as the public code did); any bin is redrawn after ``bin_patience`` candidates, an escape
+for bins a body's shape and root cannot reach (rare: see the benchmark); a limb that redraws its bin
+more than ``max_bin_redraws`` times in a row gives up, and the body redraws its shape, root and
+shift. Then the whole pose is checked: ``legs_not_crossed`` (crossed-legs partition: the left ankle must lie toward the body's right
+of the right ankle; leg bins are redrawn after ``cross_patience`` failures) and ``self_collision``
+(:mod:`pressurepose.pose.collision`, every checked pair again, by MuJoCo); a failing body redraws
+all four limbs with the same bins, and after ``collision_patience`` collisions also its shape, root
+and shift. Bins are kept through these
+retries, so the accepted bodies' distal joints are spread evenly over the bins. (The legs are drawn
+and crossed before the arms, which take no part in the crossing.)
+
+Finally the body is lowered so that its lowest capsule surface is ``clearance`` above the mattress.
+
+Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
+:func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
+``sample_one(..., rng=body_rng(seed, i))`` returns the same body.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+from pressurepose.pose.config import SamplerConfig
+from pressurepose.pose.partitions import Partition, get_partition
+from pressurepose.pose.rejection import Run
+from pressurepose.pose.samples import BodySample, SampleBatch
+
+GENDER_NAMES = {"f": "female", "m": "male"}
+
+
+def body_rng(seed: int, index: int) -> np.random.Generator:
+    """The generator of body ``index`` of a run with ``seed`` (both whole numbers >= 0)."""
+    return np.random.default_rng(np.random.SeedSequence([seed, index]))
+
+
+def check_gender(gender) -> str:
+    """'f' / 'female' -> 'f', 'm' / 'male' -> 'm'; BadInput naming the valid genders otherwise."""
+    g = {"f": "f", "female": "f", "m": "m", "male": "m"}.get(str(gender).strip().lower())
+    if g is None:
+        raise BadInput(f"gender {gender!r} is not known; expected f or m (female, male)")
+    return g
+
+
+def _whole(name: str, v, low: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+        raise BadInput(f"{name} is {v!r}; expected a whole number >= {low}")
+    return int(v)
+
+
+def sample_bodies(partition, gender, count: int, seed: int, limbs_on_bed: bool = False, body=None,
+                  config: SamplerConfig = SamplerConfig(), start: int = 0) -> SampleBatch:
+    """``count`` bodies of a partition (name or alias, see :mod:`pressurepose.pose.partitions`) and
+    gender ('f' | 'm'); body ``k`` uses :func:`body_rng` ``(seed, start + k)``.
+
+    body: the :class:`~pressurepose.body.BodyModel` to use (default: the shipped model of the gender).
+    Same arguments -> same samples.
+    """
+    part = get_partition(partition)
+    g = check_gender(gender)
+    count = _whole("count", count, 1)
+    seed = _whole("seed", seed, 0)
+    start = _whole("start", start, 0)
+    rngs = [body_rng(seed, start + k) for k in range(count)]
+    return _draw(part, g, rngs, bool(limbs_on_bed), body, config, seed)
+
+
+def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool = False, body=None,
+               config: SamplerConfig = SamplerConfig()) -> BodySample:
+    """One body drawn with ``rng`` (e.g. the data engine's per-attempt generator); see
+    :func:`sample_bodies`."""
+    if not isinstance(rng, np.random.Generator):
+        raise BadInput(f"rng is {type(rng).__name__}; expected a numpy.random.Generator")
+    return _draw(get_partition(partition), check_gender(gender), [rng], bool(limbs_on_bed), body, config,
+                 None)[0]
+
+
+def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: SamplerConfig,
+          seed: int | None) -> SampleBatch:
+    if not isinstance(config, SamplerConfig):
+        raise BadInput(f"config is {type(config).__name__}; expected a SamplerConfig")
+    if body is None:
+        from pressurepose.body import BodyModel
+
+        body = BodyModel(GENDER_NAMES[gender])
+    run = Run(part, body, config, limbs_on_bed, rngs)
+    run.run()
+    return SampleBatch(run.betas, run.pose, run.transl, run.joints, run.bins.copy(), run.roll, run.yaw,
+                       run.counts, gender, part.name, limbs_on_bed, seed)
