@@ -19,6 +19,7 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
     "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
     "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
+    "sample": ("pressurepose.pose.commands", "sample", "draw initial bodies of a posture partition (rejection sampler)"),
     "train": ("pressurepose.net.commands", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
     "infer": ("pressurepose.net.commands", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
     "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
