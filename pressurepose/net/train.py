@@ -13,7 +13,7 @@ transl      (N, 3)       the body model's translation, m (bed frame)
 joints      (N, 24, 3)   joint positions, m (bed frame)
 =========== ============ ==============================================
 
-(:func:`pressurepose.net.data.load_training_data` makes one from a generated dataset.) The ground
+(:func:`pressurepose.net.data.load_dataset` reads a generated dataset into this layout.) The ground
 truth PMR maps are PMR of the true bodies ("setting Psi^ = Psi", paper eq. 3), computed once.
 
 Runs are seeded (the shuffling, the noise and dropout of epoch e depend only on (seed, stage, e)),

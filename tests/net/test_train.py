@@ -19,7 +19,7 @@ GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)  # 2 x 1
 def test_overfits_a_tiny_dataset(tmp_path):
     data = toy_dataset(8, seed=0, grid=GRID)
     body = toy_body()
-    cfg = TrainConfig(epochs_mod1=120, epochs_mod2=12, batch_size=8, lr=1e-3, lr_mod2=1e-4, weight_decay=0.0, noise=False,
+    cfg = TrainConfig(epochs_mod1=160, epochs_mod2=12, batch_size=8, lr=1e-3, lr_mod2=1e-4, weight_decay=0.0, noise=False,
                       dropout=0.0, save_every=10 ** 6)
     result = train(data, tmp_path, cfg, bodies=(body, body), grid=GRID)
     h1 = [r for r in result.history if r["stage"] == 1]
@@ -30,12 +30,12 @@ def test_overfits_a_tiny_dataset(tmp_path):
     with torch.no_grad():
         out1, out2 = net(d["pressure"], d["gender"])
         l1, _ = loss_l1(out1, d["joints"], d["betas"])
-    assert float(l1) < 0.06  # from > 1: near zero
-    assert float(joint_error(out1.joints, d["joints"]).max()) < 0.012  # every sample within 1.2 cm
+    assert float(l1) < 0.07  # from > 1 (seeds 0-2 reach 0.028-0.042 here)
+    assert float(joint_error(out1.joints, d["joints"]).max()) < 0.015  # every sample within 1.5 cm
     assert h2[-1]["train_loss"] < h2[0]["train_loss"]  # Mod2 (L2) improves on Mod1's estimate
-    assert float(joint_error(out2.joints, d["joints"]).mean()) < 0.012
+    assert float(joint_error(out2.joints, d["joints"]).mean()) < 0.01
     rows = list(csv.DictReader(open(tmp_path / "log.csv")))
-    assert len(rows) == 132 and rows[0]["stage"] == "1" and rows[-1]["stage"] == "2"
+    assert len(rows) == 172 and rows[0]["stage"] == "1" and rows[-1]["stage"] == "2"
     assert meta["loss_scales"]["joints_m"] == 0.17528 and meta["train"]["lr"] == 1e-3
 
 
