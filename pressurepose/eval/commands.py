@@ -17,6 +17,9 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
+    from pressurepose.net.commands import add_body_arguments
+
+    add_body_arguments(p)
 
 
 def run_evaluate(args) -> int:
@@ -25,9 +28,10 @@ def run_evaluate(args) -> int:
     from pressurepose.errors import BadInput
     from pressurepose.eval.report import evaluate, format_table
     from pressurepose.net.data import load_dataset
+    from pressurepose.net.commands import body_specs
     from pressurepose.net.infer import resolve_model
 
-    net = resolve_model(args.model)
+    net = resolve_model(args.model, body_specs(args))
     device = "cuda" if args.device == "auto" and torch.cuda.is_available() else (
         "cpu" if args.device == "auto" else args.device)
     net = net.to(device)

@@ -74,6 +74,25 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")
     p.add_argument("--mesh-format", choices=("ply", "obj"), default="ply", help="mesh file format (default ply)")
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
+    add_body_arguments(p)
+
+
+def add_body_arguments(p: argparse.ArgumentParser) -> None:
+    """--female/--male for verbs that load a trained model."""
+    p.add_argument("--female", default=None, help="female body model the model was trained with, if not where the "
+                                                  "model says ('female', 'toy' or an SMPL-format file)")
+    p.add_argument("--male", default=None, help="male body model, likewise")
+
+
+def body_specs(args) -> tuple[str, str] | None:
+    """(female, male) specs from --female/--male, or None to use those stored with the model."""
+    if args.female is None and args.male is None:
+        return None
+    if args.female is None or args.male is None:
+        from pressurepose.errors import BadInput
+
+        raise BadInput("give both --female and --male (or neither)")
+    return args.female, args.male
 
 
 def run_infer(args) -> int:
@@ -84,7 +103,7 @@ def run_infer(args) -> int:
         gender = load_genders(args.pressure_file)
     else:
         gender = args.gender.split(",") if "," in args.gender else args.gender
-    est = estimate(pressure, gender, model=args.model)
+    est = estimate(pressure, gender, model=args.model, bodies=body_specs(args))
     paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
     for i in range(min(len(est), 5)):

@@ -194,14 +194,19 @@ def _genders(gender, n: int) -> list[str]:
 
 
 @lru_cache(maxsize=4)
-def _cached_model(path: str, mtime: float) -> PressureNet:
-    from pressurepose.net.checkpoint import load_model
+def _cached_model(path: str, mtime: float, bodies: tuple[str, str] | None) -> PressureNet:
+    from pressurepose.net.checkpoint import body_model, load_model
 
-    return load_model(path)[0]
+    return load_model(path, bodies=None if bodies is None else tuple(body_model(b) for b in bodies))[0]
 
 
-def resolve_model(model=None) -> PressureNet:
-    """A PressureNet from None (the shipped model), a path, or a PressureNet (returned as is)."""
+def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> PressureNet:
+    """A PressureNet from None (the shipped model), a path, or a PressureNet (returned as is).
+
+    bodies: (female, male) body model specs ('female', 'male', 'toy' or SMPL-format files) to use
+    instead of those stored with the model (e.g. the same SMPL files at another place); they must
+    be the models it was trained with (checked by identity).
+    """
     if isinstance(model, PressureNet):
         return model
     path = DEFAULT_MODEL if model is None else Path(model)
@@ -212,7 +217,7 @@ def resolve_model(model=None) -> PressureNet:
         path = path / "model.safetensors"
     if not path.is_file():
         raise BadInput(f"model file {str(path)!r} does not exist")
-    return _cached_model(str(path.resolve()), path.stat().st_mtime)
+    return _cached_model(str(path.resolve()), path.stat().st_mtime, None if bodies is None else tuple(map(str, bodies)))
 
 
 @torch.no_grad()
@@ -228,14 +233,15 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
     return results
 
 
-def estimate(pressure, gender, model=None, batch_size: int = 64) -> Estimate:
+def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch).
     gender: 'f' / 'm' (or female / male) for all images, or one per image.
     model: None (the shipped model), a model path, or a loaded :class:`PressureNet`.
+    bodies: (female, male) body model specs overriding the stored ones (see :func:`resolve_model`).
     """
-    net = resolve_model(model)
+    net = resolve_model(model, bodies)
     arr = check_pressure(pressure, net.config.grid.shape)
     genders = _genders(gender, len(arr))
     parts = run_network(net, arr, genders, batch_size)

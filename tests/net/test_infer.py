@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import h5py
@@ -5,6 +6,9 @@ import numpy as np
 import pytest
 import torch
 
+from pressurepose.body.model import BodyModel
+from pressurepose.body.smpl_io import save_body_arrays
+from pressurepose.body.toy import toy_body_arrays
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.net.checkpoint import gendered_body, save_model
@@ -92,5 +96,15 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
                  "--out", str(tmp_path / "d")]) == 2  # no 'pressure' dataset in it
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(tmp_path / "nope.pt"),
                  "--out", str(tmp_path / "d")]) == 2
+    # the body models can be named on the command line; they must be the ones trained with
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(model_path), "--out",
+                 str(tmp_path / "e"), "--female", "toy", "--male", "toy"]) == 0
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(model_path), "--out",
+                 str(tmp_path / "e"), "--female", "toy"]) == 2
+    other = BodyModel(dataclasses.replace(toy_body_arrays(), v_template=1.1 * toy_body_arrays().v_template))
+    save_body_arrays(tmp_path / "other.npz", other.arrays)
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "f", "--model", str(model_path), "--out",
+                 str(tmp_path / "e"), "--female", str(tmp_path / "other.npz"), "--male", "toy"]) == 2
     err = capsys.readouterr().err
+    assert "both --female and --male" in err and "not the one this model was trained with" in err
     assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err and "--gender is needed" in err
