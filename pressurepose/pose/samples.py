@@ -88,12 +88,20 @@ def load_samples(path) -> SampleBatch:
             d = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError) as exc:
         raise BadInput(f"sample file {str(path)!r} cannot be read as .npz ({exc})") from None
-    need = [f.name for f in fields(SampleBatch)]
+    need = [f.name for f in fields(SampleBatch)] + ["counters"]
     missing = [k for k in need if k not in d]
     if missing:
         raise BadInput(f"sample file {str(path)!r} lacks {', '.join(missing)}")
     if tuple(d["counters"]) != COUNTERS:
         raise BadInput(f"sample file {str(path)!r} has counters {tuple(d['counters'])}; expected {COUNTERS}")
+    n = len(d["pose"])
+    shapes = {"pose": (n, 72), "transl": (n, 3), "joints": (n, 24, 3), "bins": (n, 4), "roll": (n,),
+              "yaw": (n,), "counts": (n, len(COUNTERS))}
+    for k, shape in shapes.items():
+        if d[k].shape != shape:
+            raise BadInput(f"sample file {str(path)!r}: {k} has shape {d[k].shape}; expected {shape}")
+    if d["betas"].ndim != 2 or len(d["betas"]) != n:
+        raise BadInput(f"sample file {str(path)!r}: betas has shape {d['betas'].shape}; expected ({n}, S)")
     seed = int(d["seed"])
     return SampleBatch(d["betas"], d["pose"], d["transl"], d["joints"], d["bins"], d["roll"], d["yaw"],
                        d["counts"], str(d["gender"]), str(d["partition"]), bool(d["limbs_on_bed"]),
