@@ -40,8 +40,10 @@ class Producer(Protocol):
         ...
 
 
-# name -> "module:function". "synthetic" is a cheap test/demo producer (no physics).
+# name -> "module:function". "physics" is the real data engine (sample, settle, press);
+# "synthetic" is a cheap test/demo producer (no physics).
 PRODUCERS: dict[str, str] = {
+    "physics": "pressurepose.data.physics:physics_producer",
     "synthetic": "pressurepose.data.synthetic:synthetic_producer",
 }
 
