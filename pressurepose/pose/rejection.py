@@ -13,7 +13,7 @@ import numpy as np
 
 from pressurepose.body.capsules import (CAPSULE_JOINTS, CAPSULE_NAMES, capsule_endpoints, capsules_for,
                                          load_regressors, regressor_path)
-from pressurepose.body.joints import joint_index
+from pressurepose.body.joints import NUM_BETAS, joint_index
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, forward_kinematics, rodrigues
 from pressurepose.pose.collision import CHECKED_DEFAULT, checker, limb_pairs, segment_distance
 from pressurepose.pose.config import SamplerConfig
@@ -28,9 +28,10 @@ Q = Y_UP_TO_Z_UP
 SUPPORT_CAPSULES = tuple(CAPSULE_NAMES.index(n) for n in (
     "pelvis", "spine", "spine1", "spine2", "left_shoulder", "right_shoulder", "left_thigh", "right_thigh"))
 _COL = {name: i for i, name in enumerate(COUNTERS)}
-_OFF_MATTRESS = LIMB_CAUSES.index("off_mattress") + 1  # cause codes of limb candidates
-_LIMB_COLLISION = LIMB_CAUSES.index("limb_collision") + 1
+# cause codes of limb candidates: 0 accepted, i + 1 for LIMB_CAUSES[i]
+_HEIGHT, _BIN, _INTO_BED, _OFF_MATTRESS, _NOT_BEHIND_HEAD, _LIMB_COLLISION = range(1, len(LIMB_CAUSES) + 1)
 HEAD = joint_index("head")
+MAX_ROUND_GROWTH = 16  # limb candidates per round grow up to this factor (memory stays bounded)
 
 
 _BASIS_CACHE: list[tuple[object, np.ndarray, np.ndarray]] = []
@@ -68,13 +69,14 @@ class Run:
         self.limits: JointLimits = joint_limits(part)
         self.boxes = [limb.box(self.limits, part.straight_limbs) for limb in LIMBS]
         self.j_template, self.j_dirs = _joint_basis(body)
+        self.j_dirs = self.j_dirs[..., :NUM_BETAS]
         self.cap_regressors = _capsule_regressors(body)
         checked = tuple(c for c in CHECKED_DEFAULT if not (part.hands_behind_head and c.endswith("_hand")))
         self.collision = checker(checked)
         self.limb_pairs = [limb_pairs(limb.capsules, checked) for limb in LIMBS]
         self.leg_limbs = tuple(li for li, limb in enumerate(LIMBS) if limb.is_leg)
         self.arm_limbs = tuple(li for li, limb in enumerate(LIMBS) if not limb.is_leg)
-        n, s = len(rngs), body.num_betas
+        n, s = len(rngs), min(NUM_BETAS, body.num_betas)
         self.betas = np.zeros((n, s))
         self.rest = np.zeros((n, 24, 3))
         self.caps = [None] * n
@@ -143,7 +145,8 @@ class Run:
             -cfg.height_band, cfg.height_band)
         length = self.lengths[b, li][:, None]
         got = leg_bin(-reach[..., 1], length) if limb.is_leg else arm_bin(-reach[..., 1], length)
-        cause = np.where((rise < band[0]) | (rise > band[1]), 1, np.where(got != self.bins[b, li][:, None], 2, 0))
+        cause = np.where((rise < band[0]) | (rise > band[1]), _HEIGHT,
+                         np.where(got != self.bins[b, li][:, None], _BIN, 0))
         p, k = np.nonzero(cause == 0)
         if p.size:
             cause[p, k] = self._limb_details(li, b[p], aa[p, k][:, None], reach[p, k])
@@ -159,25 +162,23 @@ class Run:
         z0 = -np.sum(m2 * self.rest[bodies, 0], axis=-1)  # pelvis at height 0
         ends_z = np.sum(ends * m2[:, None, None], axis=-1) + z0[:, None, None]  # (N, n_caps, 2)
         lowest = (ends_z.min(-1) - self.cap_radius[bodies][:, list(limb.capsules)]).min(-1)
-        tests = [lowest < self.support[bodies] - cfg.max_limb_sink]
+        no = np.zeros(len(bodies), dtype=bool)
+        tests = {_INTO_BED: lowest < self.support[bodies] - cfg.max_limb_sink, _OFF_MATTRESS: no,
+                 _NOT_BEHIND_HEAD: no}
         if self.on_bed:
             x0, x1, y0, y1 = cfg.mattress
             pts = pos[:, None, [limb.chain.index(j) for j in limb.on_bed]]
             xy = to_world(pts, self.M[bodies], self.rest[bodies, 0], self.pelvis[bodies])[:, 0, :, :2]
             inside = (xy[..., 0] > x0) & (xy[..., 0] < x1) & (xy[..., 1] > y0) & (xy[..., 1] < y1)
-            tests.append(~inside.all(-1))
-        else:
-            tests.append(np.zeros(len(bodies), dtype=bool))
+            tests[_OFF_MATTRESS] = ~inside.all(-1)
         if part.hands_behind_head and not limb.is_leg:
             # medial: toward the body's right (-x) for the left wrist, toward its left for the right
             lateral = reach[:, 0] * (1.0 if limb.side == 0 else -1.0) >= 0.0
             to_head = np.linalg.norm(pos[:, limb.chain.index(limb.distal)] - self.rest[bodies, HEAD], axis=-1)
-            tests.append(lateral | (to_head > part.wrist_to_head))
-        else:
-            tests.append(np.zeros(len(bodies), dtype=bool))
+            tests[_NOT_BEHIND_HEAD] = lateral | (to_head > part.wrist_to_head)
         cause = np.zeros(len(bodies), dtype=np.int64)
-        for code, bad in reversed(list(enumerate(tests, start=3))):
-            cause[bad] = code
+        for code in sorted(tests, reverse=True):  # the first failing test names the cause
+            cause[tests[code]] = code
         left = np.flatnonzero(cause == 0)
         if left.size and self.limb_pairs[li]:
             cause[left[self._limb_collides(li, bodies[left], ends[left])]] = _LIMB_COLLISION
@@ -216,7 +217,7 @@ class Run:
             if not pending.size:
                 break
             # rounds grow so that rare bins take few rounds; the same for every pending body
-            k_round = cfg.candidates_per_round * 2 ** min(r, 6)
+            k_round = cfg.candidates_per_round * min(2 ** r, MAX_ROUND_GROWTH)
             ks = np.arange(k_round)
             b = idx[pending]
             cand = np.stack([self.rngs[i].uniform(lo, hi, (k_round, lo.size)) for i in b])

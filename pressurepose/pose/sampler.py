@@ -42,6 +42,8 @@ Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generat
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from pressurepose.errors import BadInput
@@ -51,6 +53,7 @@ from pressurepose.pose.rejection import Run
 from pressurepose.pose.samples import BodySample, SampleBatch
 
 GENDER_NAMES = {"f": "female", "m": "male"}
+BLOCK = 256  # bodies drawn together (vectorised); results do not depend on it
 
 
 def body_rng(seed: int, index: int) -> np.random.Generator:
@@ -85,7 +88,7 @@ def sample_bodies(partition, gender, count: int, seed: int, limbs_on_bed: bool =
     count = _whole("count", count, 1)
     seed = _whole("seed", seed, 0)
     start = _whole("start", start, 0)
-    rngs = [body_rng(seed, start + k) for k in range(count)]
+    rngs = (body_rng(seed, start + k) for k in range(count))
     return _draw(part, g, rngs, bool(limbs_on_bed), body, config, seed)
 
 
@@ -101,13 +104,19 @@ def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool =
 
 def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: SamplerConfig,
           seed: int | None) -> SampleBatch:
+    """Draw one body per generator (an iterable), BLOCK bodies at a time (no body depends on the others)."""
     if not isinstance(config, SamplerConfig):
         raise BadInput(f"config is {type(config).__name__}; expected a SamplerConfig")
     if body is None:
         from pressurepose.body import BodyModel
 
         body = BodyModel(GENDER_NAMES[gender])
-    run = Run(part, body, config, limbs_on_bed, rngs)
-    run.run()
-    return SampleBatch(run.betas, run.pose, run.transl, run.joints, run.bins.copy(), run.roll, run.yaw,
-                       run.counts, gender, part.name, limbs_on_bed, seed)
+    parts = []
+    rngs = iter(rngs)
+    while block := list(itertools.islice(rngs, BLOCK)):
+        run = Run(part, body, config, limbs_on_bed, block)
+        run.run()
+        parts.append(run)
+    arrays = [np.concatenate([getattr(r, name) for r in parts])
+              for name in ("betas", "pose", "transl", "joints", "bins", "roll", "yaw", "counts")]
+    return SampleBatch(*arrays, gender, part.name, limbs_on_bed, seed)

@@ -39,6 +39,21 @@ def test_same_seed_same_bodies_and_batching_does_not_matter(toy):
     assert one.counts == a[3].counts and set(one.counts) == set(COUNTERS)
 
 
+def test_blocks_do_not_change_the_bodies(toy, monkeypatch):
+    from pressurepose.pose import sampler
+
+    whole = sample_bodies("general_supine", "f", 5, seed=3, body=toy)
+    monkeypatch.setattr(sampler, "BLOCK", 2)
+    assert same(sample_bodies("general_supine", "f", 5, seed=3, body=toy), whole)
+
+
+def test_default_mattress_is_the_default_beds():
+    bed = pytest.importorskip("pressurepose.sim.bed")
+    from pressurepose.pose import mattress_outline
+
+    np.testing.assert_allclose(SamplerConfig().mattress, mattress_outline(bed.BedSpec()), atol=1e-12)
+
+
 def test_aliases_and_genders(toy):
     assert get_partition("supine").name == "general_supine"
     b = sample_bodies("straight_limbs", "male", 2, 0, body=toy)
