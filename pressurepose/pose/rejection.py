@@ -34,31 +34,26 @@ HEAD = joint_index("head")
 MAX_ROUND_GROWTH = 16  # limb candidates per round grow up to this factor (memory stays bounded)
 
 
-_BASIS_CACHE: list[tuple[object, np.ndarray, np.ndarray]] = []
+_BODY_CACHE: list[tuple[object, tuple]] = []
 
 
-def _joint_basis(body) -> tuple[np.ndarray, np.ndarray]:
-    """Rest joints (24, 3) of the template and their shape directions (24, 3, S), SMPL frame:
-    shaped rest joints = template + dirs @ betas (the joint regressor is linear)."""
-    for arrays, jt, jd in _BASIS_CACHE:
+def _body_data(body) -> tuple[np.ndarray, np.ndarray, object]:
+    """Per body model, computed once: rest joints (24, 3) of the template and their shape directions
+    (24, 3, S) in SMPL's frame (shaped rest joints = template + dirs @ betas: the joint regressor is
+    linear), and the shipped capsule regressors if they were fitted to this body, else None (then
+    ``capsules_for`` fits capsules to each shape)."""
+    for arrays, data in _BODY_CACHE:
         if arrays is body.arrays:
-            return jt, jd
+            return data
     a = body.arrays
     jt = a.J_regressor @ a.v_template
     jd = np.einsum("jv,vcs->jcs", a.J_regressor, a.shapedirs)
-    _BASIS_CACHE.insert(0, (a, jt, jd))
-    del _BASIS_CACHE[4:]
-    return jt, jd
-
-
-def _capsule_regressors(body):
-    """The shipped capsule regressors of ``body`` if they were fitted to it, else None (then
-    ``capsules_for`` fits capsules to each shape)."""
     path = regressor_path(body.gender)
-    if not path.is_file():
-        return None
-    reg = load_regressors(path)
-    return reg if reg.model_identity == body.identity else None
+    reg = load_regressors(path) if path.is_file() else None
+    data = (jt, jd, reg if reg is not None and reg.model_identity == body.identity else None)
+    _BODY_CACHE.insert(0, (a, data))
+    del _BODY_CACHE[4:]
+    return data
 
 
 class Run:
@@ -68,9 +63,8 @@ class Run:
         self.part, self.body, self.cfg, self.on_bed, self.rngs = part, body, config, limbs_on_bed, rngs
         self.limits: JointLimits = joint_limits(part)
         self.boxes = [limb.box(self.limits, part.straight_limbs) for limb in LIMBS]
-        self.j_template, self.j_dirs = _joint_basis(body)
-        self.j_dirs = self.j_dirs[..., :NUM_BETAS]
-        self.cap_regressors = _capsule_regressors(body)
+        self.j_template, j_dirs, self.cap_regressors = _body_data(body)
+        self.j_dirs = j_dirs[..., :NUM_BETAS]
         checked = tuple(c for c in CHECKED_DEFAULT if not (part.hands_behind_head and c.endswith("_hand")))
         self.collision = checker(checked)
         self.limb_pairs = [limb_pairs(limb.capsules, checked) for limb in LIMBS]
