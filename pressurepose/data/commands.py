@@ -10,10 +10,10 @@ from pathlib import Path
 from pressurepose.errors import BadInput
 
 _PRODUCER_HELP = (
-    "what makes each sample. 'synthetic' (the default for now) is a cheap deterministic TEST/DEMO "
-    "producer that draws Gaussian blobs under a stick figure: NOT physics, do not train on it. The "
-    "physics producer (sampler -> settle -> press) is not wired in yet. Any importable "
-    "'module:function' producer also works")
+    "what makes each sample [physics]. 'physics' is the data engine: pose sampler -> settle "
+    "(MuJoCo ragdoll on a soft bed) -> press (mesh on the calibrated foundation) -> mat reading. "
+    "'synthetic' is a cheap deterministic TEST/DEMO producer that draws Gaussian blobs under a stick "
+    "figure: NOT physics, do not train on it. Any importable 'module:function' producer also works")
 
 
 def _option(text: str) -> tuple[str, object]:
@@ -67,7 +67,7 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --recipe: multiply every count by this (e.g. 0.01 for a quick small mix)")
     g.add_argument("--mat", default="boditrak_bt3510", help="mat preset: boditrak_bt3510 (64 x 27, "
                                                              "default), slp (192 x 84) or tip (56 x 40)")
-    g.add_argument("--producer", default="synthetic", help=_PRODUCER_HELP)
+    g.add_argument("--producer", default="physics", help=_PRODUCER_HELP)
     g.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE",
                    help="producer option, repeatable (synthetic: reject_rate, cost_ms, sleep_ms)")
     g.add_argument("--shard-size", type=int, default=256, help="samples per shard file (default 256)")

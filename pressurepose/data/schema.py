@@ -151,7 +151,7 @@ class GenerationConfig:
     seed: int = 0
     mat: str = "boditrak_bt3510"
     shard_size: int = 256
-    producer: str = "synthetic"
+    producer: str = "physics"
     max_attempts: int = 200
     options: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
 

@@ -8,7 +8,7 @@ from pressurepose.data.synthetic import synthetic_producer
 
 
 def small_config(**kw) -> GenerationConfig:
-    base = dict(partition="general", gender="f", count=20, shard_size=6, seed=7)
+    base = dict(partition="general", gender="f", count=20, shard_size=6, seed=7, producer="synthetic")
     base.update(kw)
     return GenerationConfig(**base)
 

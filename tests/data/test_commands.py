@@ -13,11 +13,11 @@ from pressurepose.errors import BadInput
 def test_generate_then_info(tmp_path, capsys):
     out = tmp_path / "d"
     rc = main(["generate", "--partition", "general_supine", "--gender", "m", "--limbs-on-bed", "--count", "10",
-               "--shard-size", "4", "--seed", "3", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
+               "--shard-size", "4", "--seed", "3", "--producer", "synthetic", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
     assert rc == 0
     assert "10/10 samples, made 3 shard(s)" in capsys.readouterr().out
     rc = main(["generate", "--partition", "general_supine", "--gender", "m", "--limbs-on-bed", "--count", "10",
-               "--shard-size", "4", "--seed", "3", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
+               "--shard-size", "4", "--seed", "3", "--producer", "synthetic", "--option", "reject_rate=0.3", "--out", str(out), "--no-progress"])
     assert "made 0 shard(s), kept 3" in capsys.readouterr().out
     assert main(["info", str(out), "--png", str(tmp_path / "i.png")]) == 0
     text = capsys.readouterr().out
@@ -44,7 +44,8 @@ def test_recipe_file_runs_every_entry(tmp_path, capsys):
     recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
         {"name": "train/a", "split": "train", "partition": "general", "gender": "f", "count": 6, "seed": 1},
         {"name": "test/a", "split": "test", "partition": "general", "gender": "f", "count": 4, "seed": 2}]}))
-    assert main(["generate", "--recipe", str(recipe), "--out", str(tmp_path / "o"), "--no-progress"]) == 0
+    assert main(["generate", "--recipe", str(recipe), "--producer", "synthetic", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
     assert len(DatasetReader(tmp_path / "o")) == 10 and len(DatasetReader(tmp_path / "o" / "test")) == 4
 
 

@@ -117,7 +117,7 @@ def test_exhausted_attempts_are_not_retried(tmp_path):
 
 def test_kill_9_mid_run_then_rerun_equals_an_uninterrupted_run(tmp_path):
     args = ["generate", "--partition", "general", "--gender", "m", "--count", "48", "--shard-size", "8",
-            "--seed", "5", "--option", "sleep_ms=15", "--workers", "2", "--no-progress"]
+            "--seed", "5", "--producer", "synthetic", "--option", "sleep_ms=15", "--workers", "2", "--no-progress"]
     out = tmp_path / "killed"
     env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(REPO))
     proc = subprocess.Popen([sys.executable, "-m", "pressurepose.cli", *args, "--out", str(out)], cwd=REPO,
