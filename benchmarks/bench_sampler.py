@@ -104,6 +104,11 @@ def main(argv=None) -> int:
                  "-" if r["crossing"] is None else f"{100 * r['crossing']:.1f}", f"{100 * r['collision']:.1f}",
                  f"{r['bins_redrawn']:.2f}", f"{r['bodies_redrawn']:.3f}"]
         lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "Self-collision here is the whole-pose rate after each limb was already tested against the "
+              "trunk, head and itself (limb collision), so it counts collisions between limbs only. Bins "
+              "are redrawn when a limb cannot reach its bin from the body's root and shape (prone leg bins "
+              "near the hips), after 20 candidates in the bin fell off the mattress (limbs on bed), and "
+              "for crossed legs after 20 leg pairs that did not cross."]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:

@@ -29,7 +29,8 @@ class SamplerConfig:
 
     beta_range: betas ~ U(-beta_range, beta_range). yaw_max: yaw ~ U(-yaw_max, yaw_max) (the public
     code's pi/6; the paper's table says pi/3). shift_max: pelvis offset from the mattress centre,
-    U(-shift_max, shift_max) across and along. height_band: allowed |distal - proximal| height.
+    U(-shift_max, shift_max) across and along. height_band: allowed |distal - proximal| height (the
+    public code's 0.2 m; the paper's text says 10 cm).
     max_limb_sink: how far a limb capsule may reach below the surface the body lies on (0.05 m: the
     trunk sinks up to ~6.5 cm into the foam and a lightly loaded limb ~1.5-2 cm, REFERENCE section 5,
     so a limb this much lower is pressed into the mattress by the settling trunk instead of lifting
