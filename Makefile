@@ -31,7 +31,7 @@ test: $(VENV)/.installed-dev
 	OMP_NUM_THREADS=2 MPLBACKEND=Agg $(BIN)/python -m pytest -q
 
 bench: $(VENV)/.installed-dev
-	$(BIN)/python -m benchmarks.run_all
+	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m benchmarks.run_all
 
 clean:
 	rm -rf $(VENV) demo_out build *.egg-info

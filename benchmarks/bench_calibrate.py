@@ -14,17 +14,15 @@ import argparse
 import datetime
 import os
 import platform
-import re
 import time
-from pathlib import Path
 
 import numpy as np
 
 from pressurepose.sim import get_bed
 from pressurepose.sim.calibrate import bed_params, calibrate, measurement_heightfields, readings, simulate, with_params
 from pressurepose.sim.calibration_data import CapsuleMeasurements
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 HIDDEN = {"stiffness": 7.0e4, "spread": 0.03, "c0": 3.0, "c1": 1.3, "c2": 0.004}
 
 
@@ -75,18 +73,10 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("calibrate", text)
     return 0
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:calibrate -->", "<!-- /bench:calibrate -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 if __name__ == "__main__":

@@ -17,8 +17,8 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 
 
 def run_generation(out: Path, workers: int, count: int, cost_ms: float, producer: str) -> dict:
@@ -59,16 +59,6 @@ def load_time(root: Path, count: int) -> dict:
             "disk": sum(p.stat().st_size for p in root.glob("shard-*.h5"))}
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:data -->", "<!-- /bench:data -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    if begin in old and end in old:
-        new = old[:old.index(begin)] + block + old[old.index(end) + len(end):]
-    else:
-        new = old.rstrip() + "\n\n" + block + "\n"
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 def main(argv=None) -> int:
@@ -129,7 +119,7 @@ def main(argv=None) -> int:
     ])
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("data", text)
     return 0
 
 

@@ -22,10 +22,8 @@ import argparse
 import datetime
 import os
 import platform
-import re
 import statistics
 import time
-from pathlib import Path
 
 import torch
 
@@ -37,8 +35,8 @@ from pressurepose.net.losses import LossScales, loss_l1, loss_l2
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
 from pressurepose.net.pmr import MatGrid, pmr
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 GRID = MatGrid(64, 27, 0.0286, 0.0286)
 
 
@@ -157,14 +155,6 @@ def accuracy_section(model: str, data: str, batch_size: int = 64, limit: int | N
             + format_table(result["summary"]) + "\n")
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:net -->", "<!-- /bench:net -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 def main(argv=None) -> int:
@@ -229,7 +219,7 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("net", text)
     return 0
 
 

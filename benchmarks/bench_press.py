@@ -13,16 +13,14 @@ import argparse
 import datetime
 import os
 import platform
-import re
 import time
-from pathlib import Path
 
 import numpy as np
 
 from pressurepose.sim import PressFailed, get_bed, press
 from pressurepose.sim.press import body_heightfield
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 
 
 def stand_in_body(bed):
@@ -141,18 +139,10 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("press", text)
     return 0
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:press -->", "<!-- /bench:press -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 if __name__ == "__main__":

@@ -14,17 +14,15 @@ import argparse
 import datetime
 import os
 import platform
-import re
 import time
-from pathlib import Path
 
 from pressurepose.body import BodyModel
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.pose import sample_bodies
 from pressurepose.pose.samples import LIMB_CAUSES
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 # (partition, limbs_on_bed, bodies at scale 1): the partitions of the paper's table (appendix A.7)
 RUNS = [
     ("general", False, 400), ("general", True, 200),
@@ -52,14 +50,6 @@ def measure(partition: str, on_bed: bool, count: int, body) -> dict:
             "bins_redrawn": att["bins_redrawn"] / count, "bodies_redrawn": att["bodies_redrawn"] / count}
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:sampler -->", "<!-- /bench:sampler -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 def main(argv=None) -> int:
@@ -112,7 +102,7 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("sampler", text)
     return 0
 
 

@@ -1,0 +1,1 @@
+"""Reproducible speed and accuracy measurements; each writes its section of docs/RESULTS.md."""
