@@ -6,7 +6,7 @@ both the area pressed and the depth (a Winkler foundation, REFERENCE section 5).
 are tied by spring tendons (the Pasternak shear layer of :class:`~pressurepose.sim.bed.BedSpec`,
 ``G dy/dx`` and ``G dx/dy``), which spreads a dent as a real mattress and sheet do and keeps the cell
 edges from acting as a bed of nails. Cells carry gravity compensation, so the unloaded mattress is flat
-at z = 0. MuJoCo's own soft contact is kept stiff next to the cell springs (the cells' mass sets it).
+at z = 0; their mass is numerical (see :func:`cell_bed`).
 
 The exact force each cell carries is the constraint force on its slider,
 ``-qfrc_constraint[dof]`` (the contact rows of ``efc_force`` mapped through the Jacobian).
@@ -25,6 +25,10 @@ from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.ragdoll import BED_BIT
 
 CELL_HALF_HEIGHT_M = 0.05
+# A cell's spring-mass frequency times the time step. Its spring is integrated explicitly (only damping
+# is implicit), and measured here: at 0.4 and above a resting capsule chatters on the cells, at 0.3
+# and below it comes to rest.
+CELL_OMEGA_DT = 0.25
 
 
 @dataclass(frozen=True)
@@ -34,7 +38,7 @@ class CellBed:
 
     k_cell: N/m spring per cell; b_cell: N s/m damper per cell; coupling_x / coupling_y: N/m spring
     tendons between x / y neighbours (0: none); friction: Coulomb friction with the body;
-    cell_mass: kg per cell (small; it also sets MuJoCo's contact stiffness, see the module notes);
+    cell_mass: kg per cell (numerical: see :func:`cell_bed`);
     thickness_m: the mattress thickness, the deepest a cell may sink before the bed counts as
     bottomed out; contact_timeconst_s: MuJoCo's contact time constant (``solref[0]``) between body
     and cells; at 2 steps (0.02 s, MuJoCo's floor) contacts chatter, 0.05 s keeps them quiet.
@@ -84,19 +88,24 @@ class CellBed:
         return np.stack(np.meshgrid(x, y), axis=-1)
 
 
-def cell_bed(bed: BedSpec, cell_m: float | None = None, *, stiffness_n_m3: float | None = None,
-             coupling: bool = True, cell_mass: float = 0.1, contact_timeconst_s: float = 0.05) -> CellBed:
+def cell_bed(bed: BedSpec, cell_m: float | None = None, *, taxels_per_cell: int = 1,
+             stiffness_n_m3: float | None = None, coupling: bool = True, cell_mass: float | None = None,
+             timestep_s: float = 0.01, contact_timeconst_s: float = 0.05) -> CellBed:
     """The cell grid over the whole mattress of ``bed``.
 
-    cell_m: target cell size (default the mat's taxel pitch); the mattress is split into whole cells
-    of about that size. stiffness_n_m3: the settle model's own foundation modulus (default the bed's;
+    cell_m: target cell size; default ``taxels_per_cell`` taxel pitches (along and across the bed
+    separately); the mattress is split into whole cells of about that size. stiffness_n_m3: the settle model's own foundation modulus (default the bed's;
     appendix A.5 calibrates it separately, see :func:`rigid_sink`); the damping keeps the bed's time
-    constant. coupling: tie neighbouring cells with the bed's shear stiffness.
+    constant. coupling: tie neighbouring cells with the bed's shear stiffness. cell_mass: kg per cell;
+    default the mass that puts a cell's own spring-mass frequency at ``CELL_OMEGA_DT / timestep_s``
+    (lighter cells chatter under a resting body at dt = 0.01 s, heavier ones slow its fall).
     """
     x_min, x_max, y_min, y_max = bed.mattress_bounds
     w, length = x_max - x_min, y_max - y_min
-    cx = bed.mat.pitch_col_m if cell_m is None else float(cell_m)
-    cy = bed.mat.pitch_row_m if cell_m is None else float(cell_m)
+    if isinstance(taxels_per_cell, bool) or not isinstance(taxels_per_cell, (int, np.integer)) or taxels_per_cell < 1:
+        raise BadInput(f"taxels_per_cell is {taxels_per_cell!r}; expected a whole number >= 1")
+    cx = taxels_per_cell * bed.mat.pitch_col_m if cell_m is None else float(cell_m)
+    cy = taxels_per_cell * bed.mat.pitch_row_m if cell_m is None else float(cell_m)
     if not (math.isfinite(cx) and cx > 0):
         raise BadInput(f"cell size {cell_m!r} must be a positive number of metres")
     nx, ny = max(1, round(w / cx)), max(1, round(length / cy))
@@ -105,7 +114,10 @@ def cell_bed(bed: BedSpec, cell_m: float | None = None, *, stiffness_n_m3: float
     scale = 1.0 if stiffness_n_m3 is None else float(stiffness_n_m3) / bed.stiffness_n_m3
     if not (math.isfinite(scale) and scale > 0):
         raise BadInput(f"settle stiffness {stiffness_n_m3!r} must be a positive number (N/m^3)")
-    return CellBed(nx=nx, ny=ny, x0=x_min, y0=y_min, dx=dx, dy=dy, k_cell=springs["vertical"] * scale,
+    k_cell = springs["vertical"] * scale
+    if cell_mass is None:
+        cell_mass = k_cell * (timestep_s / CELL_OMEGA_DT) ** 2
+    return CellBed(nx=nx, ny=ny, x0=x_min, y0=y_min, dx=dx, dy=dy, k_cell=k_cell,
                    b_cell=springs["damping"] * scale, coupling_x=springs["coupling_x"] if coupling else 0.0,
                    coupling_y=springs["coupling_y"] if coupling else 0.0, friction=springs["friction"],
                    cell_mass=cell_mass, thickness_m=bed.mattress_thickness_m,
@@ -202,7 +214,8 @@ class SinkResult:
 def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0, 0.0), yaw_rad: float = 0.0,
                *, margin_m: float = 0.15, timestep_s: float = 0.01, max_steps: int = 3000,
                solver_iterations: int = 50) -> SinkResult:
-    """Rest one rigid object on the cell bed and measure how deep it sinks (paper appendix A.5).
+    """Rest one rigid object on the cell bed and measure how deep it sinks (paper appendix A.5); the
+    object moves only up and down.
 
     shape 'capsule': size (radius, length of the cylinder part) m, lying with its axis along x
     rotated by ``yaw_rad`` about z; shape 'box': size (half x, half y, half z) m, flat face down,
@@ -238,7 +251,9 @@ def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0,
     o.iterations = solver_iterations
     body = spec.worldbody.add_body(name="object", pos=[cx, cy, half[2] + 0.001],
                                    quat=[np.cos(yaw_rad / 2), 0.0, 0.0, np.sin(yaw_rad / 2)])
-    body.add_freejoint()
+    # held level and in place, as an object pressed into its dent is: on coarse cells a free capsule
+    # would roll from cell row to cell row instead of coming to rest
+    body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0])
     body.add_geom(mass=mass_kg, contype=0, conaffinity=BED_BIT, condim=3,
                   friction=[window.friction, 0.005, 0.0001], solref=[window.contact_timeconst_s, 1.0], **geom)
     add_cells(spec, window)
@@ -246,43 +261,27 @@ def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0,
     data = mujoco.MjData(model)
     index = CellIndex.of(model, window)
     still, step = 0, 0
-    z_prev = data.qpos[2]
+    z0 = half[2] + 0.001  # the slider measures the object's height from its start
+    z_prev = data.qpos[0]
     for step in range(1, max_steps + 1):
         mujoco.mj_step(model, data)
-        still = still + 1 if abs(data.qpos[2] - z_prev) < 1e-4 * timestep_s else 0
-        z_prev = data.qpos[2]
+        still = still + 1 if abs(data.qpos[0] - z_prev) < 1e-4 * timestep_s else 0
+        z_prev = data.qpos[0]
         if still >= 20:
             break
     mujoco.mj_forward(model, data)
-    return SinkResult(sink_m=float(half[2] - data.qpos[2]), cell_force=cell_forces(data, index),
+    return SinkResult(sink_m=float(half[2] - z0 - data.qpos[0]), cell_force=cell_forces(data, index),
                       cell_sink=cell_sink(data, index), cells=window, steps=step, rested=still >= 20)
 
 
-def capsule_sinks(bed: BedSpec, radius_m, length_m, mass_kg, center_xy_m, yaw_rad, *, stiffness_n_m3: float,
-                  cell_m: float | None = None, coupling: bool = True) -> np.ndarray:
-    """Sinks (J,) m of J rigid capsules, each alone on the settle model's cell bed with foundation
-    modulus ``stiffness_n_m3`` (the other arguments as in
-    :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`: (J,) sizes and masses, (J, 2)
-    bed-frame centres, (J,) yaws)."""
-    cells = cell_bed(bed, cell_m, stiffness_n_m3=stiffness_n_m3, coupling=coupling)
+def capsule_sinks(cells: CellBed, radius_m, length_m, mass_kg, center_xy_m, yaw_rad) -> np.ndarray:
+    """Sinks (J,) m of J rigid capsules, each resting alone on ``cells``. The arguments are as in
+    :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`: radius and mass (J,), length
+    (J,) end to end *with* the caps, bed-frame centre (J, 2), yaw of the axis from the x axis (J,)."""
+    radius, length, mass = (np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in (radius_m, length_m, mass_kg))
+    if np.any(length < 2 * radius - 1e-12):
+        raise BadInput("capsule length_m is end to end, caps included: it must be at least 2 x radius_m")
     out = []
-    for r, L, m, xy, yaw in zip(*(np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in
-                                   (radius_m, length_m, mass_kg)), np.atleast_2d(center_xy_m),
-                                np.atleast_1d(yaw_rad)):
-        out.append(rigid_sink(cells, "capsule", (r, L), float(m), xy, float(yaw)).sink_m)
+    for r, L, m, xy, yaw in zip(radius, length, mass, np.atleast_2d(center_xy_m), np.atleast_1d(yaw_rad)):
+        out.append(rigid_sink(cells, "capsule", (r, max(L - 2 * r, 0.0)), float(m), xy, float(yaw)).sink_m)
     return np.array(out)
-
-
-def settle_sink_fn(measurements, bed: BedSpec, cell_m: float | None = None, coupling: bool = True):
-    """``k -> sinks (J,)`` of the measured capsules on the settle model's bed with modulus k (N/m^3):
-    the ``sink_fn`` of :func:`pressurepose.sim.calibrate.fit_settle_stiffness` (appendix A.5).
-    Pass the same ``cell_m`` and ``coupling`` as the :class:`~pressurepose.sim.settle.SettleConfig`
-    that will use the fitted stiffness: the cell size changes how deep a given modulus lets objects sink.
-    """
-    d = measurements
-
-    def sink_fn(k: float) -> np.ndarray:
-        return capsule_sinks(bed, d.radius_m, d.length_m, d.mass_kg, d.center_xy_m, d.yaw_rad,
-                             stiffness_n_m3=k, cell_m=cell_m, coupling=coupling)
-
-    return sink_fn

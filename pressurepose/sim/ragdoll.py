@@ -57,8 +57,9 @@ HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
 LIMIT_STIFFNESS_FACTOR = 300.0
 
 # Collision bits: the bed's cells collide with every capsule; capsules of the distal limbs collide
-# with the other capsules (parents and grandparents excluded), the trunk capsules not with each
-# other (they overlap by design).
+# with every other capsule but their parent's and children's (MuJoCo filters parent-child pairs), as
+# the pose sampler's self-collision check has it; the trunk capsules do not collide with each other
+# (they overlap by design).
 BED_BIT, LIMB_BIT = 1, 2
 SELF_COLLIDING = ("left_calf", "right_calf", "left_foot", "right_foot", "left_forearm", "right_forearm",
                   "left_hand", "right_hand")
@@ -99,10 +100,9 @@ def rotvec_to_quat(v: np.ndarray) -> np.ndarray:
 def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3), angle in [0, pi], of quaternions (..., 4) (w, x, y, z), any norm."""
     q = np.asarray(q, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    q = np.where(q[..., :1] < 0, -q, q)  # the same rotation with w >= 0: angle <= pi
+    q = q * (np.where(q[..., :1] < 0, -1.0, 1.0) / np.sqrt((q * q).sum(-1, keepdims=True)))  # w >= 0: angle <= pi
     xyz = q[..., 1:]
-    s = np.linalg.norm(xyz, axis=-1, keepdims=True)
+    s = np.sqrt((xyz * xyz).sum(-1, keepdims=True))
     theta = 2.0 * np.arctan2(s, q[..., :1])
     scale = np.where(s > 1e-12, theta / np.where(s > 1e-12, s, 1.0), 2.0 / np.maximum(q[..., :1], 1e-12))
     return scale * xyz
@@ -167,10 +167,6 @@ class RagdollParams:
     upper: np.ndarray
     limited: np.ndarray
     home: np.ndarray
-
-    @property
-    def joint(self) -> np.ndarray:
-        return np.array(CAPSULE_JOINTS)
 
 
 def capsule_parents() -> np.ndarray:
@@ -269,12 +265,6 @@ def add_ragdoll(spec: mujoco.MjSpec, params: RagdollParams, *, self_collision: b
                    conaffinity=BED_BIT | LIMB_BIT, condim=3, friction=[friction, 0.005, 0.0001],
                    solref=[contact_timeconst_s, 1.0])
         bodies.append(b)
-    for k in range(NUM_CAPSULES):
-        if CAPSULE_NAMES[k] in SELF_COLLIDING:
-            p = params.parent[k]
-            gp = params.parent[p] if p >= 0 else -1
-            if gp >= 0:
-                spec.add_exclude(bodyname1=body_name(k), bodyname2=body_name(gp))
 
 
 @dataclass(frozen=True)

@@ -36,18 +36,19 @@ z-up bed frame, as ``BodyModel.forward``); the resting pose is exact for the mes
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from pressurepose.body.capsules import CAPSULE_NAMES, NUM_CAPSULES
+from pressurepose.body.capsules import CAPSULE_NAMES
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
-from pressurepose.sim.cellbed import CellBed, CellIndex, add_cells, cell_bed, cell_forces, cell_sink
+from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
+                                      cell_sink)
 from pressurepose.sim.posture import posture_class
 from pressurepose.sim.ragdoll import (LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
-                                      limit_torques, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
+                                      limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
                                       ragdoll_params, write_params)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision")
@@ -65,8 +66,10 @@ class SettleConfig:
         pelvis touches. rest_speed_m_s, rest_accel_m_s2, rest_hold_steps: the resting criterion and
         how many consecutive steps it must hold. drop_clearance_m: the lowest capsule point's start
         height above the mattress.
-    cell_m: cell size of the mattress grid (default the taxel pitch); stiffness_n_m3: the settle
-        model's foundation modulus (default the bed's; calibrate it with :func:`rigid_sink`);
+    cell_m, taxels_per_cell: cell size of the mattress grid, by default 2 x 2 taxels (see the
+        benchmark: 3.4x faster than one cell per taxel; trunks rest within ~1 cm of where the finer
+        grid puts them, limbs within a few cm). stiffness_n_m3: the settle model's foundation
+        modulus (default the bed's; :func:`calibrate_stiffness` fits it, appendix A.5).
         coupling: tie neighbouring cells with the bed's shear stiffness.
     self_collision: limbs (forearms, hands, calves, feet) collide with the other capsules.
     cone: MuJoCo's friction cone, 'pyramidal' or 'elliptic'.
@@ -74,7 +77,6 @@ class SettleConfig:
     iterations, ls_iterations, tolerance: Newton solver settings.
     max_speed_m_s: faster capsule points mean the simulation blew up; fall_depth_m: a pelvis this far
         below the mattress top has fallen off; self_collision_tol_m: start overlap allowed between limbs.
-    mass_voxel_m: voxel size for sharing overlapping capsule volume in the mass split.
     """
 
     timestep_s: float = 0.01
@@ -85,6 +87,7 @@ class SettleConfig:
     rest_hold_steps: int = 20
     drop_clearance_m: float = 0.005
     cell_m: float | None = None
+    taxels_per_cell: int = 2
     stiffness_n_m3: float | None = None
     coupling: bool = True
     self_collision: bool = True
@@ -96,15 +99,15 @@ class SettleConfig:
     max_speed_m_s: float = 5.0
     fall_depth_m: float = 0.25
     self_collision_tol_m: float = 0.002
-    mass_voxel_m: float = 0.002
 
     def __post_init__(self):
-        for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations"):
+        for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
+                     "taxels_per_cell"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise BadInput(f"settle {name} is {v!r}; expected a positive whole number")
         for name in ("timestep_s", "rest_speed_m_s", "rest_accel_m_s2", "tolerance", "max_speed_m_s",
-                     "fall_depth_m", "mass_voxel_m", "limit_stiffness_factor"):
+                     "fall_depth_m", "limit_stiffness_factor"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise BadInput(f"settle {name} is {v!r}; expected a positive number")
@@ -159,8 +162,7 @@ class SettleModel:
 
     def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams):
         self.bed, self.config = bed, config
-        self.cells: CellBed = cell_bed(bed, config.cell_m, stiffness_n_m3=config.stiffness_n_m3,
-                                       coupling=config.coupling)
+        self.cells: CellBed = settle_cells(bed, config)
         self.model = build_spec(params, self.cells, config).compile()
         self.data = mujoco.MjData(self.model)
         self.ragdoll = RagdollIndex.of(self.model)
@@ -170,8 +172,6 @@ class SettleModel:
         self.nv = 6 + 3 * len(self.ragdoll.ball) + len(self.ragdoll.hinge)
         if self.ragdoll.qpos.min() != 0 or int(self.model.dof_bodyid[self.nv - 1]) not in set(self.ragdoll.body):
             raise RuntimeError("the ragdoll's joints must lead the model's qpos")
-        g = self.ragdoll.geom
-        self._limb_geoms = g[self.model.geom_contype[g] != 0]
         solo = mujoco.MjSpec()
         solo.compiler.degree = False
         add_ragdoll(solo, params)
@@ -206,6 +206,67 @@ class SettleModel:
         m.stat.meanmass = float(np.mean(m.body_mass[1:]))
 
 
+def settle_cells(bed: BedSpec, config: SettleConfig, stiffness_n_m3: float | None = None) -> CellBed:
+    """The cell bed ``config`` settles bodies on (``stiffness_n_m3`` overrides the config's)."""
+    return cell_bed(bed, config.cell_m, taxels_per_cell=config.taxels_per_cell, coupling=config.coupling,
+                    stiffness_n_m3=config.stiffness_n_m3 if stiffness_n_m3 is None else stiffness_n_m3,
+                    timestep_s=config.timestep_s)
+
+
+@dataclass(frozen=True)
+class CapsuleObjects:
+    """Rigid capsules lying on the bed, in :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`'
+    terms: radius_m, length_m (end to end, caps included), mass_kg (J,); center_xy_m (J, 2); yaw_rad (J,)."""
+
+    radius_m: tuple[float, ...]
+    length_m: tuple[float, ...]
+    mass_kg: tuple[float, ...]
+    center_xy_m: tuple[tuple[float, float], ...]
+    yaw_rad: tuple[float, ...]
+
+
+# Body-part-like capsules of an average body (trunk, thigh, calf, upper arm, head), spread over the bed
+# at assorted angles so that the fit does not hinge on how one object lines up with the cells.
+BODY_PART_CAPSULES = CapsuleObjects(
+    radius_m=(0.10, 0.07, 0.05, 0.045, 0.09), length_m=(0.50, 0.49, 0.45, 0.34, 0.28),
+    mass_kg=(25.0, 8.0, 3.0, 2.0, 5.0),
+    center_xy_m=((0.38, 0.90), (0.30, 1.20), (0.50, 0.60), (0.20, 0.40), (0.40, 1.50)),
+    yaw_rad=(0.0, 1.57, 0.3, 0.8, 0.0))
+
+
+def settle_sink_fn(objects, bed: BedSpec, config: SettleConfig | None = None):
+    """``k -> sinks (J,)`` m of the capsules ``objects`` (a :class:`CapsuleObjects` or measurements) on
+    ``config``'s cell bed with foundation modulus k (N/m^3): the ``sink_fn`` of
+    :func:`pressurepose.sim.calibrate.fit_settle_stiffness` (appendix A.5). The cell size matters: a
+    coarse cell is pressed as deep as the deepest point above it, so coarse grids need a softer k."""
+    config = SettleConfig() if config is None else config
+    o = objects
+
+    def sink_fn(k: float) -> np.ndarray:
+        return capsule_sinks(settle_cells(bed, config, k), o.radius_m, o.length_m, o.mass_kg, o.center_xy_m,
+                             o.yaw_rad)
+
+    return sink_fn
+
+
+def calibrate_stiffness(bed: BedSpec | None = None, config: SettleConfig | None = None,
+                        objects: CapsuleObjects = BODY_PART_CAPSULES):
+    """Appendix A.5 without real measurements: the settle bed's modulus at which ``objects`` sink as
+    deep as the (calibrated) press model of ``bed`` says they sink. Returns a
+    :class:`~pressurepose.sim.calibrate.SettleStiffness`; use ``SettleConfig(stiffness_n_m3=...)``.
+    About 15 s on one core."""
+    from pressurepose.sim.calibrate import capsule_mesh, fit_settle_stiffness, simulate
+    from pressurepose.sim.press import body_heightfield
+
+    bed = get_bed() if bed is None else bed
+    o = objects
+    fields = [body_heightfield(*capsule_mesh(r, L, xy, yaw), bed)
+              for r, L, xy, yaw in zip(o.radius_m, o.length_m, o.center_xy_m, o.yaw_rad)]
+    _, press_sinks = simulate(bed, fields, o.mass_kg)
+    k = bed.stiffness_n_m3
+    return fit_settle_stiffness(press_sinks, settle_sink_fn(o, bed, config), bounds=(k / 10, k * 10), xtol=2e-3)
+
+
 def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> mujoco.MjSpec:
     """The settle model as an MjSpec: the ragdoll first, then the cell bed; implicitfast integrator,
     Newton solver, pyramidal friction cones."""
@@ -221,6 +282,7 @@ def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> m
     o.ls_iterations = config.ls_iterations
     o.tolerance = config.tolerance
     o.gravity = [0.0, 0.0, -9.81]
+    o.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # keep a blown-up state to report it
     add_ragdoll(spec, params, self_collision=config.self_collision, friction=cells.friction,
                 contact_timeconst_s=cells.contact_timeconst_s)
     add_cells(spec, cells)
@@ -247,15 +309,14 @@ def capsule_ends(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex
     return np.stack([c - half * axis, c + half * axis], axis=1)
 
 
-def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, limb_geoms: np.ndarray, ragdoll_geoms: set,
-                  tol: float) -> bool:
-    """True if a limb capsule penetrates another capsule deeper than tol (contacts after mj_forward)."""
-    if data.ncon == 0 or len(limb_geoms) == 0:
+def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex, tol: float) -> bool:
+    """True if two capsules penetrate deeper than tol (from the contacts of the last mj_forward; only
+    pairs that may collide, limbs against the rest, make contacts)."""
+    if data.ncon == 0:
         return False
     geom = data.contact.geom[: data.ncon]
-    dist = data.contact.dist[: data.ncon]
-    both = np.array([a in ragdoll_geoms and b in ragdoll_geoms for a, b in geom])
-    return bool(np.any(both & (dist < -tol)))
+    ours = np.isin(geom, index.geom).all(axis=1)
+    return bool(np.any(ours & (data.contact.dist[: data.ncon] < -tol)))
 
 
 def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
@@ -282,10 +343,41 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         from pressurepose.body.masses import segment_masses
 
         caps = capsules_for(body, betas)
-        masses = segment_masses(body, betas, g, voxel=config.mass_voxel_m, caps=caps)
+        masses = segment_masses(body, betas, g, caps=caps)
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses)
     sm = settle_model(bed, config, params)
     return _run(sm, params, betas, g, pose, transl)
+
+
+class _BallLimits:
+    """Applies :func:`limit_torques` to the limited ball joints each step, cheaply: a joint whose
+    rotation angle is below the distance from 0 to the nearest face of its box cannot be outside it."""
+
+    def __init__(self, params: RagdollParams, index: RagdollIndex, factor: float):
+        ball = index.ball[params.limited[index.ball] & (params.stiffness[index.ball] > 0)]
+        self.qpos = index.qpos[ball][:, None] + np.arange(4)
+        self.dof = index.dof[ball][:, None] + np.arange(3)
+        self.lower, self.upper = params.lower[ball], params.upper[ball]
+        self.k = factor * params.stiffness[ball]
+        inside = np.minimum(-self.lower, self.upper)
+        self.safe_cos = np.cos(np.clip(inside.min(axis=1), 0.0, np.pi) / 2)  # cos(half the safe angle)
+        self.active = np.zeros(len(ball), dtype=bool)
+
+    def apply(self, data: mujoco.MjData) -> None:
+        w0 = np.abs(data.qpos[self.qpos[:, 0]])
+        check = w0 < self.safe_cos  # MuJoCo keeps these quaternions unit
+        if check.any():
+            w = quat_to_rotvec(data.qpos[self.qpos[check]])
+            r = local_to_smpl(w)
+            out = np.any((r < self.lower[check]) | (r > self.upper[check]), axis=1)
+            check[check] = out
+            if out.any():
+                data.qfrc_applied[self.dof[check]] = limit_torques(w[out], self.lower[check], self.upper[check],
+                                                                   self.k[check])
+        stale = self.active & ~check
+        if stale.any():
+            data.qfrc_applied[self.dof[stale]] = 0.0
+        self.active = check
 
 
 def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str, pose: np.ndarray,
@@ -302,63 +394,54 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     start_posture = posture_class(pose)
     weight = params.total_mass * -m.opt.gravity[2]
     x_min, x_max, y_min, y_max = sm.cells.bounds
-    ragdoll_geoms = set(ri.geom.tolist())
-
-    ball = ri.ball
-    k_lim = cfg.limit_stiffness_factor * params.stiffness[ball]
-    lim_lo, lim_hi = params.lower[ball], params.upper[ball]
-    lim_on = params.limited[ball] & (k_lim > 0)
-    ball_dof = ri.dof[ball][lim_on]
-    lim_lo, lim_hi, k_lim, ball_on = lim_lo[lim_on], lim_hi[lim_on], k_lim[lim_on], ball[lim_on]
-    ball_qpos = ri.qpos[ball_on][:, None] + np.arange(4)
+    limits = _BallLimits(params, ri, cfg.limit_stiffness_factor)
+    cell_dof = sm.cell_index.dof.ravel()
+    cell_qpos = sm.cell_index.qpos.ravel()
+    pelvis_floor = -cfg.fall_depth_m + radius[PELVIS]  # lowest allowed pelvis axis point
+    v_max2, v_rest2 = (cfg.max_speed_m_s * cfg.timestep_s) ** 2, (cfg.rest_speed_m_s * cfg.timestep_s) ** 2
+    a_rest2 = (cfg.rest_accel_m_s2 * cfg.timestep_s**2) ** 2
 
     status = "not_settled"
-    touch = -1
-    hold = 0
-    prev_ends = prev_vel = None
-    step = 0
-    if _self_overlap(m, d, sm._limb_geoms, ragdoll_geoms, cfg.self_collision_tol_m):
+    touch, hold, step = -1, 0, 0
+    prev_ends = prev_move = None
+    if _self_overlap(m, d, ri, cfg.self_collision_tol_m):
         status = "self_collision"
     else:
         for step in range(1, cfg.max_steps + 1):
-            if len(ball_on):
-                w = quat_to_rotvec(d.qpos[ball_qpos])
-                tau = limit_torques(w, lim_lo, lim_hi, k_lim)
-                for i, a in enumerate(ball_dof):
-                    d.qfrc_applied[a: a + 3] = tau[i]
+            limits.apply(d)
             mujoco.mj_step(m, d)
             ends = capsule_ends(m, d, ri)  # kinematics of the state this step started from
             if touch < 0:
-                pelvis_low = ends[PELVIS, :, 2].min() - radius[PELVIS]
-                if pelvis_low <= 0.0 or cell_forces(d, sm.cell_index).sum() >= 0.5 * weight:
+                if ends[PELVIS, :, 2].min() <= radius[PELVIS] or -d.qfrc_constraint[cell_dof].sum() >= 0.5 * weight:
                     touch = step
                 elif step % cfg.zero_every == 0:
                     d.qvel[:nv] = 0.0
-                    prev_ends = prev_vel = None
+                    prev_ends = prev_move = None
                     continue
-            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))) or any(
-                    d.warning[w].number > 0 for w in _WARNINGS):
+            if not np.isfinite(d.qvel[:nv]).all() or (step % 10 == 0 and _troubled(d, cell_qpos, sm.cells)):
                 status = "unstable"
                 break
             com = d.subtree_com[ri.body[0]]
-            if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or (
-                    ends[PELVIS, :, 2].min() - radius[PELVIS] < -cfg.fall_depth_m):
+            if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or ends[PELVIS, :, 2].min() < pelvis_floor:
                 status = "fell_off_bed"
                 break
             if prev_ends is not None:
-                vel = (ends - prev_ends) / cfg.timestep_s
-                speed = np.sqrt((vel**2).sum(-1)).max()
-                if speed > cfg.max_speed_m_s or cell_sink(d, sm.cell_index).min() < -sm.cells.thickness_m:
+                move = ends - prev_ends  # per step: velocity * dt
+                move2 = (move * move).sum(-1).max()
+                if move2 > v_max2:
                     status = "unstable"
                     break
-                if prev_vel is not None and touch >= 0:
-                    acc = np.sqrt((((vel - prev_vel) / cfg.timestep_s) ** 2).sum(-1)).max()
-                    hold = hold + 1 if (speed < cfg.rest_speed_m_s and acc < cfg.rest_accel_m_s2) else 0
+                if prev_move is not None and touch >= 0:
+                    dv = move - prev_move  # acceleration * dt^2
+                    at_rest = move2 < v_rest2 and (dv * dv).sum(-1).max() < a_rest2
+                    hold = hold + 1 if at_rest else 0
                     if hold >= cfg.rest_hold_steps:
                         status = "settled"
                         break
-                prev_vel = vel
+                prev_move = move
             prev_ends = ends
+    if status in ("settled", "not_settled") and _troubled(d, cell_qpos, sm.cells):
+        status = "unstable"
     mujoco.mj_forward(m, d)  # positions, contacts and forces of the final state
     out_pose, out_transl = qpos_to_pose(m, ri, params, d.qpos, pose)
     posture = posture_class(out_pose) if np.all(np.isfinite(out_pose)) else "unknown"
@@ -369,3 +452,10 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
                         posture_start=start_posture, posture=posture, mass_kg=params.total_mass,
                         bed_force_n=float(cell_forces(d, sm.cell_index).sum()),
                         max_sink_m=float(-cell_sink(d, sm.cell_index).min()))
+
+
+def _troubled(data: mujoco.MjData, cell_qpos: np.ndarray, cells: CellBed) -> bool:
+    """A MuJoCo warning (bad accelerations, full contact buffers), non-finite state, or a cell pushed
+    through the whole mattress."""
+    return (any(data.warning[w].number > 0 for w in _WARNINGS) or not np.isfinite(data.qpos).all()
+            or data.qpos[cell_qpos].min() < -cells.thickness_m)

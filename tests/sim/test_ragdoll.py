@@ -9,7 +9,6 @@ from scipy.spatial.transform import Rotation
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, posed_capsules
 from pressurepose.body.joints import joint_index
-from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP as Q
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.sim import ragdoll as rd
 from pressurepose.sim.bed import get_bed

@@ -12,14 +12,14 @@ from pressurepose.pose.limits import joint_limits
 from pressurepose.pose.root import root_axis_angle, world_rotation
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.calibrate import fit_settle_stiffness
-from pressurepose.sim.cellbed import cell_bed, rigid_sink, settle_sink_fn
+from pressurepose.sim.cellbed import cell_bed, rigid_sink
 from pressurepose.sim.posture import posture_class, posture_classes, roll_angle
 from pressurepose.sim.ragdoll import home_pose
-from pressurepose.sim.settle import SettleConfig, settle
+from pressurepose.sim.settle import SettleConfig, settle, settle_sink_fn
 
 G = 9.81
 BED = get_bed()
-FAST = SettleConfig(cell_m=0.057)  # coarser cells than the default: quicker, same physics
+FAST = SettleConfig()
 BETAS = np.zeros(10)
 
 
@@ -115,12 +115,12 @@ def test_settle_stiffness_fit_recovers_a_hidden_stiffness():
 
     class Measured:  # the fields of calibration_data.CapsuleMeasurements that the fit reads
         radius_m = np.array([0.06])
-        length_m = np.array([0.25])
+        length_m = np.array([0.37])  # end to end
         mass_kg = np.array([5.0])
         center_xy_m = np.array([[0.4, 0.9]])
         yaw_rad = np.array([0.0])
 
-    sink_fn = settle_sink_fn(Measured, BED, cell_m=0.04)
+    sink_fn = settle_sink_fn(Measured, BED)
     hidden = 8.0e4
     measured = sink_fn(hidden)
     fit = fit_settle_stiffness(measured, sink_fn, bounds=(1e4, 1e6), xtol=1e-3)

@@ -1,0 +1,174 @@
+"""Physics simulation #1 (settle): steps to rest, seconds per sample, rejection rates.
+
+    .venv/bin/python -m benchmarks.bench_settle [--count 15] [--seed 3] [--gender f]
+
+Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up), settles
+each on the default bed with the default :class:`SettleConfig` and, for comparison, with one cell per
+taxel; times are CPU seconds of this process (the machine is shared, so wall time would measure the
+neighbours). Also checks the resting criterion: how far capsules still move if the criterion must
+hold 100 steps instead of the default. Prints the figures and replaces the ``bench:settle`` section
+of docs/RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import dataclasses
+import datetime
+import os
+import platform
+import re
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from pressurepose.body import BodyModel
+from pressurepose.body.capsules import capsules_for
+from pressurepose.body.masses import segment_masses
+from pressurepose.pose.sampler import sample_bodies
+from pressurepose.sim.bed import get_bed
+from pressurepose.sim.cellbed import cell_bed
+from pressurepose.sim.ragdoll import ragdoll_params
+from pressurepose.sim.settle import STATUSES, SettleConfig, settle
+
+RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
+PARTITIONS = ("general", "general_supine", "prone_hands_up")
+
+
+def run(body, samples, bed, config, gender):
+    """Settle every sample; returns rows (partition, result, params CPU s, settle CPU s)."""
+    rows = []
+    for part, batch in samples.items():
+        for i in range(len(batch)):
+            t0 = time.process_time()
+            caps = capsules_for(body, batch.betas[i])
+            params = ragdoll_params(body, batch.betas[i], gender, caps=caps,
+                                    masses=segment_masses(body, batch.betas[i], gender, caps=caps))
+            t1 = time.process_time()
+            res = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, config, params=params)
+            rows.append((part, res, t1 - t0, time.process_time() - t1))
+    return rows
+
+
+def summary(rows) -> dict:
+    steps = np.array([r.steps for _, r, _, _ in rows if r.ok])
+    cpu = np.array([t for *_, t in rows])
+    params = np.array([t for _, _, t, _ in rows])
+    per_part = {}
+    for part in dict.fromkeys(p for p, *_ in rows):
+        sel = [r for p, r, _, _ in rows if p == part]
+        per_part[part] = collections.Counter(r.status for r in sel), len(sel)
+    return dict(n=len(rows), statuses=collections.Counter(r.status for _, r, _, _ in rows), per_part=per_part,
+                steps=steps, cpu=cpu, params=params,
+                touch=np.array([r.touch_step for _, r, _, _ in rows if r.touch_step >= 0]))
+
+
+def pct(x, q):
+    return float(np.percentile(x, q)) if len(x) else float("nan")
+
+
+def fmt_table(name: str, s: dict) -> list[str]:
+    st = s["steps"]
+    lines = [f"**{name}**: {s['n']} samples, settled {s['statuses']['settled']} "
+             f"({100 * s['statuses']['settled'] / s['n']:.0f} %).", "",
+             "| | mean | median | 90th pct | max |", "|---|---|---|---|---|",
+             f"| steps to rest (settled) | {st.mean():.0f} | {pct(st, 50):.0f} | {pct(st, 90):.0f} | {st.max()} |",
+             f"| pelvis-touch step | {s['touch'].mean():.0f} | {pct(s['touch'], 50):.0f} | "
+             f"{pct(s['touch'], 90):.0f} | {s['touch'].max()} |",
+             f"| settle CPU s / sample (all) | {s['cpu'].mean():.3f} | {pct(s['cpu'], 50):.3f} | "
+             f"{pct(s['cpu'], 90):.3f} | {s['cpu'].max():.3f} |",
+             f"| ragdoll params CPU s / sample | {s['params'].mean():.4f} | {pct(s['params'], 50):.4f} | "
+             f"{pct(s['params'], 90):.4f} | {s['params'].max():.4f} |", "",
+             "| partition | n | " + " | ".join(STATUSES) + " |", "|---|---|" + "---|" * len(STATUSES)]
+    for part, (counts, n) in s["per_part"].items():
+        lines.append(f"| {part} | {n} | " + " | ".join(str(counts.get(c, 0)) for c in STATUSES) + " |")
+    return lines
+
+
+def hold_check(body, samples, bed, config, gender, hold: int, limit: int):
+    """Largest capsule-end move (m) between resting with the default hold and with ``hold`` steps."""
+    longer = dataclasses.replace(config, rest_hold_steps=hold)
+    moves = []
+    for batch in samples.values():
+        for i in range(len(batch)):
+            if len(moves) >= limit:
+                return np.array(moves)
+            a = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, config)
+            if not a.ok:
+                continue
+            b = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, longer)
+            if b.ok:
+                moves.append(np.abs(b.capsules - a.capsules).max())
+    return np.array(moves)
+
+
+def write_section(text: str) -> None:
+    begin, end = "<!-- bench:settle -->", "<!-- /bench:settle -->"
+    block = f"{begin}\n{text.rstrip()}\n{end}\n"
+    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
+    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
+    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(new)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--count", type=int, default=15, help="bodies per partition [15]")
+    ap.add_argument("--seed", type=int, default=3, help="sampler seed [3]")
+    ap.add_argument("--gender", default="f", help="f or m [f]")
+    ap.add_argument("--hold-samples", type=int, default=10, help="bodies for the resting-criterion check [10]")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
+    args = ap.parse_args(argv)
+    gender = {"f": "female", "m": "male"}[args.gender]
+    body = BodyModel(gender)
+    bed = get_bed()
+    samples = {p: sample_bodies(p, args.gender, args.count, args.seed, body=body) for p in PARTITIONS}
+    default = SettleConfig()
+    fine = dataclasses.replace(default, cell_m=bed.mat.pitch_col_m)
+    results = {}
+    for name, cfg in (("default", default), ("one cell per taxel", fine)):
+        rows = run(body, samples, bed, cfg, gender)
+        results[name] = summary(rows)
+        print(name, dict(results[name]["statuses"]), "mean settle CPU s %.3f" % results[name]["cpu"].mean())
+    moves = hold_check(body, samples, bed, default, gender, 100, args.hold_samples)
+    print("capsule move with a 100-step hold: median %.4f m, max %.4f m (%d bodies)"
+          % (np.median(moves), moves.max(), len(moves)))
+
+    cells = {name: cell_bed(bed, cfg.cell_m) for name, cfg in (("default", default), ("one cell per taxel", fine))}
+    d = results["default"]
+    per_sample = d["cpu"].mean() + d["params"].mean()
+    lines = [
+        "## Settle: physics simulation #1 (`benchmarks/bench_settle.py`)", "",
+        f"{datetime.date.today()}, {platform.platform()}, {platform.machine()}, {os.cpu_count()} CPUs (shared "
+        f"with other jobs: CPU seconds of this process), MuJoCo {mujoco.__version__}, one thread. Shipped "
+        f"{gender} model; {args.count} bodies per partition from the pose sampler (seed {args.seed}); default "
+        f"bed ({bed.mat.name}, k_A {bed.stiffness_n_m3:.3g} N/m^3, G {bed.coupling_n_m:.3g} N/m).", "",
+        f"Default config: {cells['default'].ny} x {cells['default'].nx} cells of "
+        f"{1000 * cells['default'].dx:.1f} x {1000 * cells['default'].dy:.1f} mm, {default.cone} friction cones, "
+        f"dt {default.timestep_s} s, rest after {default.rest_hold_steps} steps under 0.05 m/s and 0.5 m/s^2. "
+        f"Comparison: {cells['one cell per taxel'].ny} x {cells['one cell per taxel'].nx} cells "
+        f"(one per taxel, as in REFERENCE section 5).", "",
+    ]
+    for name in results:
+        lines += fmt_table(name, results[name]) + [""]
+    lines += [
+        f"Settle throughput with the default config: {1 / per_sample:.2f} samples per CPU-second "
+        f"(ragdoll parameters + settle, all samples including rejected ones; rejected samples cost "
+        f"their steps too).", "",
+        f"Resting criterion: settling again with the criterion held 100 steps instead of "
+        f"{default.rest_hold_steps} moves the capsules by a median {1000 * np.median(moves):.1f} mm, "
+        f"at most {1000 * moves.max():.1f} mm ({len(moves)} bodies).",
+    ]
+    text = "\n".join(lines)
+    print(text)
+    if not args.no_write:
+        write_section(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
