@@ -51,7 +51,7 @@ CAPSULE_SEGMENTS: tuple[str, ...] = (
 )
 PAPER_VOXEL = 0.002  # the paper's voxel size for sharing overlaps (m)
 # Default at run time: on the shipped models it moves no capsule mass by more than about 1.5 % from the
-# 2 mm result and takes ~20 ms instead of ~100-250 ms per body (benchmarks/bench_body.py, docs/RESULTS.md).
+# 2 mm result and is about 8 times faster (benchmarks/bench_body.py, docs/RESULTS.md).
 RUNTIME_VOXEL = 0.005
 
 
@@ -174,7 +174,7 @@ def segment_masses(body, betas, gender: str | None = None, voxel: float = RUNTIM
 
     gender: segment-fraction table (f, m or n; default the body's); voxel: voxel size (m) for sharing
     overlapping volume within the trunk and head+neck segments (``PAPER_VOXEL`` = 2 mm for the paper's
-    grid; the default ``RUNTIME_VOXEL`` = 5 mm is 5-10 times faster and within about 1.5 % of it); caps: the
+    grid; the default ``RUNTIME_VOXEL`` = 5 mm is about 8 times faster and within about 1.5 % of it); caps: the
     capsules (default :func:`capsules_for`). The masses sum to ``body.mass(betas)``.
     """
     betas = check_betas(body, betas)
