@@ -11,7 +11,7 @@ This is an offline tool. It runs in its own environment with the ``[bake]`` extr
         --out pressurepose/body/assets
 
 (run from the repository root; the first construction of anny's model takes about a minute and
-writes about 790 MB to ``ANNY_CACHE_DIR``; the whole bake takes 10-20 minutes on one CPU core).
+writes about 790 MB to ``ANNY_CACHE_DIR``; the whole bake takes 5-10 minutes on one CPU core).
 The result is deterministic for a given ``--seed``.
 
 What it does
