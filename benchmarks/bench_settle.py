@@ -4,7 +4,7 @@
 
 Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up), settles
 each on the default bed with the default :class:`SettleConfig` and, for comparison, with one cell per
-taxel; times are CPU seconds of this process (the machine is shared, so wall time would measure the
+taxel (the cell size REFERENCE section 5 measured); times are CPU seconds of this process (the machine is shared, so wall time would measure the
 neighbours). Also checks the resting criterion: how far capsules still move if the criterion must
 hold 100 steps instead of the default. Prints the figures and replaces the ``bench:settle`` section
 of docs/RESULTS.md.
@@ -30,9 +30,8 @@ from pressurepose.body.capsules import capsules_for
 from pressurepose.body.masses import segment_masses
 from pressurepose.pose.sampler import sample_bodies
 from pressurepose.sim.bed import get_bed
-from pressurepose.sim.cellbed import cell_bed
 from pressurepose.sim.ragdoll import ragdoll_params
-from pressurepose.sim.settle import STATUSES, SettleConfig, settle
+from pressurepose.sim.settle import STATUSES, SettleConfig, calibrate_stiffness, settle, settle_cells
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 PARTITIONS = ("general", "general_supine", "prone_hands_up")
@@ -128,7 +127,7 @@ def main(argv=None) -> int:
     bed = get_bed()
     samples = {p: sample_bodies(p, args.gender, args.count, args.seed, body=body) for p in PARTITIONS}
     default = SettleConfig()
-    fine = dataclasses.replace(default, cell_m=bed.mat.pitch_col_m)
+    fine = dataclasses.replace(default, taxels_per_cell=1)
     results = {}
     for name, cfg in (("default", default), ("one cell per taxel", fine)):
         rows = run(body, samples, bed, cfg, gender)
@@ -138,7 +137,9 @@ def main(argv=None) -> int:
     print("capsule move with a 100-step hold: median %.4f m, max %.4f m (%d bodies)"
           % (np.median(moves), moves.max(), len(moves)))
 
-    cells = {name: cell_bed(bed, cfg.cell_m) for name, cfg in (("default", default), ("one cell per taxel", fine))}
+    configs = {"default": default, "one cell per taxel": fine}
+    cells = {name: settle_cells(bed, cfg) for name, cfg in configs.items()}
+    stiffness = {name: calibrate_stiffness(bed, cfg) for name, cfg in configs.items()}
     d = results["default"]
     per_sample = d["cpu"].mean() + d["params"].mean()
     lines = [
@@ -151,7 +152,11 @@ def main(argv=None) -> int:
         f"{1000 * cells['default'].dx:.1f} x {1000 * cells['default'].dy:.1f} mm, {default.cone} friction cones, "
         f"dt {default.timestep_s} s, rest after {default.rest_hold_steps} steps under 0.05 m/s and 0.5 m/s^2. "
         f"Comparison: {cells['one cell per taxel'].ny} x {cells['one cell per taxel'].nx} cells "
-        f"(one per taxel, as in REFERENCE section 5).", "",
+        f"(one per taxel, as in REFERENCE section 5). Each config's foundation modulus is fitted so that "
+        f"five body-part capsules sink as deep as in the bed's press model (appendix A.5): "
+        + "; ".join(f"{name}: {st.stiffness:.3g} N/m^3 ({st.stiffness / bed.stiffness_n_m3:.2f} k_A), sink "
+                    f"errors {100 * st.relative_error.min():+.0f} to {100 * st.relative_error.max():+.0f} %"
+                    for name, st in stiffness.items()) + ".", "",
     ]
     for name in results:
         lines += fmt_table(name, results[name]) + [""]

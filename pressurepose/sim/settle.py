@@ -24,9 +24,13 @@ A sample is rejected, and the cause counted, when it:
 * ``posture_changed``: rests in another posture class (supine / prone / lateral) than it started in;
 * ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job).
 
-Speed: one compiled model per (bed, config) serves every body; per sample only the shape-dependent
-numbers are rewritten (:func:`pressurepose.sim.ragdoll.write_params`) and MuJoCo's derived constants
-recomputed, so nothing is compiled per sample.
+Model choices measured here (``benchmarks/bench_settle.py``, docs/RESULTS.md): elliptic friction cones
+(with pyramidal ones a supine body crept 1-2 cm sideways and resting limbs chattered, taking 2-3x the
+steps); cells of 2 x 2 taxels (3-4x faster than one per taxel, the cost being mostly contacts and
+cells); collisions only between the body and the cells, and between limb capsules and the rest of
+the body. Speed: one compiled model per (bed, config) serves every body; per sample only the
+shape-dependent numbers are rewritten (:func:`pressurepose.sim.ragdoll.write_params`) and MuJoCo's
+derived constants recomputed, so nothing is compiled per sample.
 
 Frames: inputs and outputs are SMPL parameters (pose in SMPL's own axis-angle, translation in the
 z-up bed frame, as ``BodyModel.forward``); the resting pose is exact for the mesh:
@@ -69,7 +73,9 @@ class SettleConfig:
     cell_m, taxels_per_cell: cell size of the mattress grid, by default 2 x 2 taxels (see the
         benchmark: 3.4x faster than one cell per taxel; trunks rest within ~1 cm of where the finer
         grid puts them, limbs within a few cm). stiffness_n_m3: the settle model's foundation
-        modulus (default the bed's; :func:`calibrate_stiffness` fits it, appendix A.5).
+        modulus; by default fitted so that body-part capsules sink into these cells as deep as into
+        the bed's press model (:func:`calibrate_stiffness`, appendix A.5; about a second, once per
+        bed and config in a process).
         coupling: tie neighbouring cells with the bed's shear stiffness.
     self_collision: limbs (forearms, hands, calves, feet) collide with the other capsules.
     cone: MuJoCo's friction cone, 'pyramidal' or 'elliptic'.
@@ -157,12 +163,15 @@ class SettleModel:
     """One compiled MuJoCo model (ragdoll + cell bed) reused for every body on one bed and config.
 
     The first body compiles it; later bodies rewrite the shape-dependent numbers in place.
-    ``model``, ``data``, ``cells``, ``ragdoll`` (a :class:`RagdollIndex`), ``cell_index``.
+    ``model``, ``data``, ``cells``, ``ragdoll`` (a :class:`RagdollIndex`), ``cell_index``,
+    ``stiffness_n_m3`` (the cells' foundation modulus, calibrated unless the config sets it).
     """
 
     def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams):
         self.bed, self.config = bed, config
-        self.cells: CellBed = settle_cells(bed, config)
+        k = config.stiffness_n_m3
+        self.stiffness_n_m3 = calibrate_stiffness(bed, config).stiffness if k is None else k
+        self.cells: CellBed = settle_cells(bed, config, self.stiffness_n_m3)
         self.model = build_spec(params, self.cells, config).compile()
         self.data = mujoco.MjData(self.model)
         self.ragdoll = RagdollIndex.of(self.model)
@@ -324,9 +333,10 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
     """Rest one body on the bed; see the module docstring for the procedure and rejection causes.
 
     body: a ``BodyModel``; betas (S,); pose (72,) SMPL axis-angle; transl (3,) m, z-up bed frame
-    (``BodyModel.forward``'s); gender: mass table and mean mass (default the body's); bed: a
-    ``BedSpec`` (default ``get_bed()``); config: :class:`SettleConfig`; params: a precomputed
-    :class:`RagdollParams` for this body and shape (default built here).
+    (``BodyModel.forward``'s; its height is replaced: the body starts with its lowest capsule point
+    ``config.drop_clearance_m`` above the mattress); gender: mass table and mean mass (default the
+    body's); bed: a ``BedSpec`` (default ``get_bed()``); config: :class:`SettleConfig`; params: a
+    precomputed :class:`RagdollParams` for this body and shape (default built here).
     """
     bed = get_bed() if bed is None else bed
     config = SettleConfig() if config is None else config

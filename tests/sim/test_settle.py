@@ -15,7 +15,7 @@ from pressurepose.sim.calibrate import fit_settle_stiffness
 from pressurepose.sim.cellbed import cell_bed, rigid_sink
 from pressurepose.sim.posture import posture_class, posture_classes, roll_angle
 from pressurepose.sim.ragdoll import home_pose
-from pressurepose.sim.settle import SettleConfig, settle, settle_sink_fn
+from pressurepose.sim.settle import BODY_PART_CAPSULES, SettleConfig, calibrate_stiffness, settle, settle_sink_fn
 
 G = 9.81
 BED = get_bed()
@@ -125,6 +125,14 @@ def test_settle_stiffness_fit_recovers_a_hidden_stiffness():
     measured = sink_fn(hidden)
     fit = fit_settle_stiffness(measured, sink_fn, bounds=(1e4, 1e6), xtol=1e-3)
     assert fit.stiffness == pytest.approx(hidden, rel=0.02)
+
+
+def test_default_stiffness_makes_capsules_sink_as_in_the_press_model():
+    fit = calibrate_stiffness(BED, FAST)
+    raw = settle_sink_fn(BODY_PART_CAPSULES, BED, FAST)(BED.stiffness_n_m3)
+    press = fit.sinks / (1 + fit.relative_error)
+    assert np.abs(np.log(fit.sinks / press)).mean() < np.abs(np.log(raw / press)).mean()
+    assert np.abs(fit.relative_error).max() < 0.35
 
 
 def test_bad_bed_objects_are_rejected():
