@@ -166,7 +166,12 @@ def main(argv=None) -> int:
         f"their steps too).", "",
         f"Resting criterion: settling again with the criterion held 100 steps instead of "
         f"{default.rest_hold_steps} moves the capsules by a median {1000 * np.median(moves):.1f} mm, "
-        f"at most {1000 * moves.max():.1f} mm ({len(moves)} bodies).",
+        f"at most {1000 * moves.max():.1f} mm ({len(moves)} bodies). The paper's thresholds let limbs creep "
+        f"(a limb under 0.05 m/s counts as resting while its spring, with a 15 s time constant, still pulls "
+        f"it toward the home pose), so a longer hold mostly finds a later, different rest; "
+        f"{default.rest_hold_steps} steps only rule out the turning points of rocking.", "",
+        "For scale, REFERENCE section 5 (MuJoCo 3.17, 35 x 72 cells, pyramidal cones): 371 steps and 0.9 s "
+        "per sample on average.",
     ]
     text = "\n".join(lines)
     print(text)

@@ -71,8 +71,8 @@ class SettleConfig:
         how many consecutive steps it must hold. drop_clearance_m: the lowest capsule point's start
         height above the mattress.
     cell_m, taxels_per_cell: cell size of the mattress grid, by default 2 x 2 taxels (see the
-        benchmark: 3.4x faster than one cell per taxel; trunks rest within ~1 cm of where the finer
-        grid puts them, limbs within a few cm). stiffness_n_m3: the settle model's foundation
+        benchmark: 3-4x faster than one cell per taxel; the two grids rest bodies a median 2-3 cm
+        apart, trunks closer than limbs). stiffness_n_m3: the settle model's foundation
         modulus; by default fitted so that body-part capsules sink into these cells as deep as into
         the bed's press model (:func:`calibrate_stiffness`, appendix A.5; about a second, once per
         bed and config in a process).
@@ -302,7 +302,8 @@ _MODELS: dict = {}
 
 
 def settle_model(bed: BedSpec, config: SettleConfig, params: RagdollParams) -> SettleModel:
-    """The cached :class:`SettleModel` for (bed, config), compiled with ``params`` the first time."""
+    """The cached :class:`SettleModel` for (bed, config), compiled with ``params`` the first time.
+    One per process: it holds one ``MjData``, so threads must not settle concurrently."""
     key = (bed, config)
     if key not in _MODELS:
         _MODELS[key] = SettleModel(bed, config, params)
