@@ -1,6 +1,6 @@
 """Physics simulation #1 (settle): steps to rest, seconds per sample, rejection rates.
 
-    .venv/bin/python -m benchmarks.bench_settle [--count 15] [--seed 3] [--gender f]
+    .venv/bin/python -m benchmarks.bench_settle [--count 20] [--seed 3] [--gender f]
 
 Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up), settles
 each on the default bed with the default :class:`SettleConfig` and, for comparison, with one cell per
@@ -116,7 +116,7 @@ def write_section(text: str) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--count", type=int, default=15, help="bodies per partition [15]")
+    ap.add_argument("--count", type=int, default=20, help="bodies per partition [20]")
     ap.add_argument("--seed", type=int, default=3, help="sampler seed [3]")
     ap.add_argument("--gender", default="f", help="f or m [f]")
     ap.add_argument("--hold-samples", type=int, default=10, help="bodies for the resting-criterion check [10]")

@@ -6,7 +6,9 @@ both the area pressed and the depth (a Winkler foundation, REFERENCE section 5).
 are tied by spring tendons (the Pasternak shear layer of :class:`~pressurepose.sim.bed.BedSpec`,
 ``G dy/dx`` and ``G dx/dy``), which spreads a dent as a real mattress and sheet do and keeps the cell
 edges from acting as a bed of nails. Cells carry gravity compensation, so the unloaded mattress is flat
-at z = 0; their mass is numerical (see :func:`cell_bed`).
+at z = 0; their mass is numerical (see :func:`cell_bed`). A cell pressed through the whole mattress
+thickness stops there (a joint limit: the bed frame under the foam), as under a limb levered over
+the mattress edge.
 
 The exact force each cell carries is the constraint force on its slider,
 ``-qfrc_constraint[dof]`` (the contact rows of ``efc_force`` mapped through the Jacobian).
@@ -39,8 +41,8 @@ class CellBed:
     k_cell: N/m spring per cell; b_cell: N s/m damper per cell; coupling_x / coupling_y: N/m spring
     tendons between x / y neighbours (0: none); friction: Coulomb friction with the body;
     cell_mass: kg per cell (numerical: see :func:`cell_bed`);
-    thickness_m: the mattress thickness, the deepest a cell may sink before the bed counts as
-    bottomed out; contact_timeconst_s: MuJoCo's contact time constant (``solref[0]``) between body
+    thickness_m: the mattress thickness: a cell stops there, on the bed frame;
+    contact_timeconst_s: MuJoCo's contact time constant (``solref[0]``) between body
     and cells; at 2 steps (0.02 s, MuJoCo's floor) contacts chatter, 0.05 s keeps them quiet.
     """
 
@@ -136,7 +138,8 @@ def add_cells(spec: mujoco.MjSpec, cells: CellBed) -> None:
         for c in range(cells.nx):
             b = spec.worldbody.add_body(name=cell_name(r, c), pos=[xy[r, c, 0], xy[r, c, 1], -h], gravcomp=1.0)
             b.add_joint(name=cell_name(r, c), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0],
-                        stiffness=cells.k_cell, damping=cells.b_cell)
+                        stiffness=cells.k_cell, damping=cells.b_cell, limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                        range=[-cells.thickness_m, cells.thickness_m])
             b.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cells.dx / 2, cells.dy / 2, h], mass=cells.cell_mass,
                        contype=BED_BIT, conaffinity=0, condim=3, friction=[cells.friction, 0.005, 0.0001],
                        solref=[cells.contact_timeconst_s, 1.0])
@@ -247,7 +250,7 @@ def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0,
     o.timestep = timestep_s
     o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     o.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    o.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    o.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     o.iterations = solver_iterations
     body = spec.worldbody.add_body(name="object", pos=[cx, cy, half[2] + 0.001],
                                    quat=[np.cos(yaw_rad / 2), 0.0, 0.0, np.sin(yaw_rad / 2)])
