@@ -30,12 +30,9 @@ def _stage(name: str, t0: float) -> float:
 
 def run_demo(args) -> int:
     from pressurepose.body import BodyModel, canonical_gender
-    from pressurepose.data.physics import apply_rigid_motion
     from pressurepose.net.infer import DEFAULT_MODEL, estimate
-    from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.bed import get_bed
-    from pressurepose.sim.press import press
-    from pressurepose.sim.settle import settle
+    from pressurepose.sim.simulate import simulate_one
 
     gender = canonical_gender(args.gender)[0]
     out = Path(args.out)
@@ -46,20 +43,16 @@ def run_demo(args) -> int:
     body, bed = BodyModel(gender), get_bed()
     t = _stage("load body model and bed", t)
     for _ in range(20):
-        drawn = sample_one(args.partition, gender, rng, body=body)
-        rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed)
-        if rest.ok:
+        sim = simulate_one(body, bed, args.partition, gender, rng)
+        if not isinstance(sim, str):
             break
-        print(f"  (sample rejected while settling: {rest.status}; drawing another)")
+        print(f"  (sample rejected: {sim}; drawing another)")
     else:
         raise RuntimeError("no sample settled in 20 attempts")
-    t = _stage(f"sample + settle ({rest.steps} steps)", t)
-    verts, _ = body.forward(rest.betas, rest.pose, rest.transl)
-    image = press(verts[0], body.faces, rest.mass_kg, bed)
-    pose, transl = apply_rigid_motion(body, rest.betas, rest.pose, rest.transl, image.transform)
-    true_v, true_j = body.forward(rest.betas, pose, transl)
-    t = _stage("press mesh, read the mat", t)
-    print(f"  body {float(body.height(rest.betas)[0]):.2f} m, {rest.mass_kg:.1f} kg; sank {100 * image.sink_m:.1f} cm; "
+    t = _stage(f"sample + settle ({sim.settle_steps} steps) + press", t)
+    image = sim.image
+    true_v, true_j = body.forward(sim.betas, sim.pose, sim.transl)
+    print(f"  body {sim.height:.2f} m, {sim.mass:.1f} kg; sank {100 * image.sink_m:.1f} cm; "
           f"peak {image.pressure.max():.0f} mmHg; {int(image.contact.sum())} taxels in contact")
 
     model = args.model or DEFAULT_MODEL

@@ -25,8 +25,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 ASSETS = REPO / "pressurepose" / "net" / "assets"
 
-# (split, gender, count, seed): the shipped model's data, all in the general_supine partition
-DATA = (("test", "f", 150, 902), ("test", "m", 150, 903), ("train", "f", 1500, 900), ("train", "m", 1500, 901))
+# (folder under WORK/data, gender, count, seed): the shipped model's data, all general_supine
+DATA = (("test/f", "f", 150, 902), ("test/m", "m", 150, 903), ("train/f", "f", 300, 900), ("train/m", "m", 300, 901),
+        ("train/f2", "f", 300, 910), ("train/m2", "m", 300, 911))
 
 
 def cli(*args: str) -> None:
@@ -42,8 +43,8 @@ def main() -> int:
     p.add_argument("--scale", type=float, default=1.0, help="multiply the sample counts")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--epochs-mod1", type=int, default=12)
-    p.add_argument("--epochs-mod2", type=int, default=3)
-    p.add_argument("--lr", type=float, default=3e-4, help="Adam lr for Mod1 (paper 2e-5 for 100 epochs)")
+    p.add_argument("--epochs-mod2", type=int, default=4)
+    p.add_argument("--lr", type=float, default=5e-4, help="Adam lr for Mod1 (paper 2e-5 for 100 epochs)")
     p.add_argument("--lr-mod2", type=float, default=1e-4)
     p.add_argument("--batch-size", type=int, default=32)
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
@@ -53,10 +54,10 @@ def main() -> int:
     work = Path(args.work).resolve()
     data = work / "data"
     if not args.skip_generate:
-        for split, gender, count, seed in DATA:
+        for where, gender, count, seed in DATA:
             cli("generate", "--partition", args.partition, "--gender", gender, "--count",
-                str(max(1, round(count * args.scale))), "--seed", str(seed), "--shard-size", "100",
-                "--workers", str(args.workers), "--out", str(data / split / gender))
+                str(max(1, round(count * args.scale))), "--seed", str(seed), "--shard-size", "50",
+                "--workers", str(args.workers), "--out", str(data / where))
     run = work / "run"
     cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),

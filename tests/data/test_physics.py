@@ -6,7 +6,7 @@ import pytest
 from pressurepose.body import BodyModel
 from pressurepose.body.lbs_numpy import rodrigues
 from pressurepose.body.toy import toy_body_arrays
-from pressurepose.data.physics import apply_rigid_motion
+from pressurepose.sim.simulate import apply_rigid_motion
 
 
 def test_rigid_motion_folds_into_root_parameters():

@@ -1,0 +1,72 @@
+"""One body through both simulations: sample -> settle (MuJoCo) -> press (mesh on the bed) -> mat image.
+
+The labels describe the body where the image was made: the press's small rigid correction (a
+tilt about the centre of mass and a vertical shift) is folded into the root orientation and
+translation, so ``BodyModel.forward(betas, pose, transl)`` reproduces the pressed mesh exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle, shaped_rest
+
+
+@dataclass(frozen=True, eq=False)
+class Simulated:
+    """A settled, pressed body: labels (betas (S,), pose (72,), transl (3,), joints (24, 3) bed frame,
+    mass kg, height m) and ``image``, the :class:`~pressurepose.sim.press.PressResult`
+    (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest."""
+
+    betas: np.ndarray
+    pose: np.ndarray
+    transl: np.ndarray
+    joints: np.ndarray
+    mass: float
+    height: float
+    image: object
+    settle_steps: int
+
+
+def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
+                       transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """SMPL root parameters of a body after a rigid motion of the whole body.
+
+    betas (S,), pose (72,), transl (3,) place the body; transform (4, 4) moves it in the bed frame.
+    Returns (pose', transl') with ``forward(betas, pose', transl') == transform applied to
+    forward(betas, pose, transl)``: only the root orientation (pose'[:3]) and transl change.
+    """
+    Q = Y_UP_TO_Z_UP
+    R, t = transform[:3, :3], transform[:3, 3]
+    _, rest = shaped_rest(body.arrays, np.asarray(betas)[None])
+    root = Q @ rest[0, 0]                      # the root joint's offset, z-up, before transl
+    new_pose = np.array(pose, dtype=np.float64)
+    new_pose[:3] = rotation_to_axis_angle(Q.T @ R @ Q @ rodrigues(new_pose[:3]))
+    new_transl = R @ (root + transl) + t - root
+    return new_pose, new_transl
+
+
+def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
+                 limbs_on_bed: bool = False) -> Simulated | str:
+    """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
+    pressing fails. All randomness comes from ``rng``."""
+    from pressurepose.pose.sampler import sample_one
+    from pressurepose.sim.press import PressFailed, press
+    from pressurepose.sim.settle import settle
+
+    drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body)
+    rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed)
+    if not rest.ok:
+        return rest.status
+    verts, _ = body.forward(rest.betas, rest.pose, rest.transl)
+    try:
+        image = press(verts[0], body.faces, rest.mass_kg, bed)
+    except PressFailed:
+        return "press_failed"
+    pose, transl = apply_rigid_motion(body, rest.betas, rest.pose, rest.transl, image.transform)
+    _, joints = body.forward(rest.betas, pose, transl)
+    return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
+                     mass=float(rest.mass_kg), height=float(body.height(rest.betas)[0]), image=image,
+                     settle_steps=int(rest.steps))
