@@ -15,6 +15,8 @@ import sys
 VERBS: dict[str, tuple[str, str, str]] = {
     "convert": ("pressurepose.data.commands", "convert", "convert the official PressurePose release to our datasets, or back"),
     "demo": ("pressurepose.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
+    "simulate": ("pressurepose.sim.commands", "simulate",
+                 "settle bodies on the bed and press them: pressure images and labels (.npz, --plot)"),
     "calibrate": ("pressurepose.sim.commands", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
     "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
     "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),

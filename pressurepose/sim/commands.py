@@ -127,3 +127,84 @@ def _plot_history(ax, res):
     ax.set_ylabel("best loss")
     ax.set_title("CMA-ES", fontsize=9)
 
+
+
+def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--partition", required=True, help="posture partition, e.g. general_supine, general, prone_hands_up")
+    p.add_argument("--gender", required=True, help="f or m")
+    p.add_argument("--limbs-on-bed", action="store_true", help="start every limb over the mattress")
+    p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
+    p.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    p.add_argument("--mat", default="boditrak_bt3510", help="mat preset [boditrak_bt3510]")
+    p.add_argument("--out", required=True, help="output .npz: pressure, force, depth, contact, betas, pose, "
+                                                "transl, joints, mass, height, and rejection counts")
+    p.add_argument("--plot", default=None, help="PNG: each pressure image beside the body at rest, seen from the side")
+
+
+def run_simulate(args) -> int:
+    """Settle and press ``count`` bodies (attempt a of body i uses seed (seed, i, a))."""
+    from collections import Counter
+
+    from tqdm import tqdm
+
+    from pressurepose.body import BodyModel, canonical_gender
+    from pressurepose.errors import BadInput
+    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.simulate import simulate_one
+
+    if args.count < 1:
+        raise BadInput(f"--count is {args.count}; expected at least 1")
+    gender = canonical_gender(args.gender)[0]
+    body, bed = BodyModel(gender), get_bed(args.mat)
+    done, rejected = [], Counter()
+    for i in tqdm(range(args.count), desc="simulate", unit="body"):
+        for attempt in range(100):
+            sim = simulate_one(body, bed, args.partition, gender,
+                               np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed)
+            if not isinstance(sim, str):
+                done.append(sim)
+                break
+            rejected[sim] += 1
+        else:
+            raise RuntimeError(f"body {i}: no attempt settled in 100 tries ({dict(rejected)})")
+    img = [s.image for s in done]
+    np.savez_compressed(
+        args.out, pressure=np.stack([m.pressure for m in img]), force=np.stack([m.force for m in img]),
+        depth=np.stack([m.depth for m in img]), contact=np.stack([m.contact for m in img]),
+        betas=np.stack([s.betas for s in done]), pose=np.stack([s.pose for s in done]),
+        transl=np.stack([s.transl for s in done]), joints=np.stack([s.joints for s in done]),
+        mass=np.array([s.mass for s in done]), height=np.array([s.height for s in done]),
+        gender=np.array(gender), partition=np.array(args.partition),
+        rejection_causes=np.array(sorted(rejected), dtype=str),
+        rejection_counts=np.array([rejected[k] for k in sorted(rejected)], dtype=np.int64))
+    print(f"{len(done)} bodies settled and pressed; rejected {sum(rejected.values())} "
+          f"({', '.join(f'{k} {v}' for k, v in sorted(rejected.items())) or 'none'}); wrote {args.out}")
+    if args.plot:
+        _plot_simulated(body, bed, done).savefig(args.plot, dpi=100)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _plot_simulated(body, bed, done):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pressurepose.viz.mesh import draw_mesh
+
+    mat = bed.mat
+    extent = [0, mat.cols * mat.pitch_col_m, mat.rows * mat.pitch_row_m, 0]
+    n = len(done)
+    fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False)
+    for (a_img, a_side), s in zip(axes, done):
+        im = a_img.imshow(s.image.pressure, extent=extent, cmap="viridis", vmin=0)
+        a_img.set_title(f"{s.mass:.0f} kg, peak {s.image.pressure.max():.0f} mmHg", fontsize=9)
+        fig.colorbar(im, ax=a_img, fraction=0.06, label="mmHg")
+        verts, _ = body.forward(s.betas, s.pose, s.transl)
+        draw_mesh(a_side, verts[0], body.faces, "bed_side")
+        a_side.axhline(0.0, color="0.4", lw=1)
+        a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
+        a_side.set_xlabel("y along the bed (m)")
+    fig.tight_layout()
+    return fig
