@@ -11,9 +11,7 @@ import argparse
 import datetime
 import os
 import platform
-import re
 import time
-from pathlib import Path
 
 import numpy as np
 import torch
@@ -23,8 +21,8 @@ from pressurepose.body.capsules import capsules_for, fit_capsules, point_capsule
 from pressurepose.body.masses import PAPER_VOXEL, RUNTIME_VOXEL, segment_masses
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 
 
 def best_time(fn, repeats: int) -> float:
@@ -103,14 +101,6 @@ def fit_quality(body, num: int = 10) -> dict[str, float]:
     return q
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:body -->", "<!-- /bench:body -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 def main(argv=None) -> int:
@@ -154,7 +144,7 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("body", text)
     return 0
 
 

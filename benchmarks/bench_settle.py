@@ -18,9 +18,7 @@ import dataclasses
 import datetime
 import os
 import platform
-import re
 import time
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -32,8 +30,8 @@ from pressurepose.pose.sampler import sample_bodies
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.ragdoll import ragdoll_params
 from pressurepose.sim.settle import STATUSES, SettleConfig, calibrate_stiffness, settle, settle_cells
+from benchmarks.results import write_section
 
-RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 PARTITIONS = ("general", "general_supine", "prone_hands_up")
 
 
@@ -104,14 +102,6 @@ def hold_check(body, samples, bed, config, gender, hold: int, limit: int):
     return np.array(moves)
 
 
-def write_section(text: str) -> None:
-    begin, end = "<!-- bench:settle -->", "<!-- /bench:settle -->"
-    block = f"{begin}\n{text.rstrip()}\n{end}\n"
-    old = RESULTS.read_text() if RESULTS.is_file() else "# Measured results\n\n"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(new)
 
 
 def main(argv=None) -> int:
@@ -176,7 +166,7 @@ def main(argv=None) -> int:
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("settle", text)
     return 0
 
 
