@@ -207,8 +207,8 @@ def adult_height_beta(gender: str) -> tuple[float, float]:
     from anny.paths import get_anny_root_dir
 
     name = {"female": "girls", "male": "boys"}[gender]
-    sd = torch.load(Path(get_anny_root_dir()) / "data" / "shape_calibration" / f"{name}.pth",
-                    weights_only=True, map_location="cpu")["conditional_height_distribution"]
+    path = Path(get_anny_root_dir()) / "data" / "shape_calibration" / f"{name}.pth"
+    sd = torch.load(path, weights_only=True, map_location="cpu")["conditional_height_distribution"]
     return float(sd["alpha_anchors"][-1]), float(sd["beta_anchors"][-1])
 
 
