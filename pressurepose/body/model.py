@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.body import lbs_numpy
+from pressurepose.body.mesh import mesh_volume
 from pressurepose.body.smpl_io import SmplArrays, load_body_arrays
 from pressurepose.errors import BadInput
 
@@ -183,9 +184,3 @@ class BodyModel:
         v, _ = self.rest(betas)
         return v[..., 2].max(-1) - v[..., 2].min(-1)
 
-
-def mesh_volume(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Signed volume (B,) of closed meshes verts (B, V, 3) with outward-facing faces (F, 3)."""
-    v = np.atleast_3d(verts)
-    a, b, c = v[:, faces[:, 0]], v[:, faces[:, 1]], v[:, faces[:, 2]]
-    return np.einsum("bfi,bfi->bf", a, np.cross(b, c)).sum(-1) / 6.0

@@ -1,6 +1,5 @@
 """Loading SMPL-format files: npz round trip, official-style pickles without chumpy, unsafe input."""
 
-import io
 import pickle
 import sys
 import types
