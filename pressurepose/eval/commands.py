@@ -11,7 +11,7 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Evaluate a trained PressureNet on a generated dataset: MPJPE (24 joints) and "
                      "vertex-to-vertex error in cm, overall, by partition and by gender, beside the "
                      "paper's mean-pose baseline (mean shape, supine, centred, straight limbs).")
-    p.add_argument("--model", required=True, help="trained model (.safetensors with its .json, .pt, or a run folder)")
+    p.add_argument("--model", required=True, help="trained model (.json with its .safetensors files, .pt, or a run folder)")
     p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")

@@ -1,11 +1,14 @@
 """Saving and loading trained PressureNets without ever running code from a file.
 
-A model is two files: ``NAME.safetensors`` (weights; the format holds tensors only) and
-``NAME.json`` (the :class:`NetConfig`, the body models' identities, loss scales and training
-notes). A ``.pt`` file holding ``{"meta": <json text>, "state_dict": {name: tensor}}`` is also
-read, with ``torch.load(weights_only=True)``: a pickle that would build anything else is refused
-with BadInput. The body models are given by spec ("female", "male", "neutral", "toy" or an
-SMPL-format file); a loaded model is checked against the stored identity of its bodies.
+A model is a ``NAME.json`` (the :class:`NetConfig`, the body models' identities, loss scales and
+training notes) with its weights in safetensors files beside it (the format holds tensors only):
+``NAME.safetensors`` by default, or one file per module (``NAME.mod1.safetensors``,
+``NAME.mod2.safetensors``, listed in the JSON under ``weight_files``) when saved with
+``split_modules=True``, which keeps each file small enough for a git repository. A ``.pt`` file
+holding ``{"meta": <json text>, "state_dict": {name: tensor}}`` is also read, with
+``torch.load(weights_only=True)``: a pickle that would build anything else is refused with
+BadInput. The body models are given by spec ("female", "male", "neutral", "toy" or an SMPL-format
+file); a loaded model is checked against the stored identity of its bodies.
 """
 
 from __future__ import annotations
@@ -60,36 +63,89 @@ def atomic_write(path: Path, write) -> None:
     os.replace(tmp, path)
 
 
-def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, BodyModel], meta: dict | None = None) -> Path:
-    """Write ``path`` (.safetensors with a .json beside it, or a single .pt). Returns the weights path."""
+def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, BodyModel], meta: dict | None = None,
+               split_modules: bool = False, dtype: torch.dtype | None = None) -> Path:
+    """Write a model at ``path`` (NAME.safetensors / NAME.json, or a single NAME.pt).
+
+    split_modules: weights in one safetensors file per top-level module (NAME.mod1.safetensors, ...)
+    instead of one NAME.safetensors. dtype: store floating-point weights in this dtype (e.g.
+    torch.float16 to halve the size; loading casts them to the network's dtype). Returns the path to load from.
+    """
     from safetensors.torch import save_file
 
     path = Path(path)
     record = {"format": FORMAT, "config": net.config.to_dict(), "bodies": bodies_meta(*bodies), **(meta or {})}
     weights = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
+    if dtype is not None:
+        weights = {k: v.to(dtype) if v.is_floating_point() else v for k, v in weights.items()}
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix == ".pt":
         atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
         return path
-    path = path.with_suffix(".safetensors")
-    atomic_write(path, lambda p: save_file(weights, str(p)))
-    atomic_write(path.with_suffix(".json"), lambda p: p.write_text(json.dumps(record, indent=1)))
-    return path
+    groups = {"": weights}
+    if split_modules:
+        groups = {}
+        for k, v in weights.items():
+            groups.setdefault(k.split(".", 1)[0], {})[k] = v
+    files = {f"{path.stem}.{g}.safetensors" if g else f"{path.stem}.safetensors": w for g, w in groups.items()}
+    for name, w in files.items():
+        atomic_write(path.with_name(name), lambda p, w=w: save_file(w, str(p)))
+    if split_modules:
+        record["weight_files"] = sorted(files)
+    meta_path = path.with_suffix(".json")
+    atomic_write(meta_path, lambda p: p.write_text(json.dumps(record, indent=1)))
+    return meta_path if split_modules else path.with_suffix(".safetensors")
 
 
-def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
-    """(meta record, state dict) of a saved model; BadInput for anything that is not one."""
+def _read_meta(path: Path, text: str) -> dict:
+    try:
+        meta = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BadInput(f"model file {str(path)!r}: its metadata is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise BadInput(f"model file {str(path)!r} is not a {FORMAT} model")
+    return meta
+
+
+def _read_safetensors(path: Path, meta_path: Path) -> tuple[dict, dict[str, torch.Tensor]]:
     from safetensors import SafetensorError
     from safetensors.torch import load_file
 
+    meta = _read_meta(path, meta_path.read_text())
+    names = meta.get("weight_files", [meta_path.stem + ".safetensors"])
+    if not (isinstance(names, list) and names and all(isinstance(n, str) and Path(n).name == n for n in names)):
+        raise BadInput(f"model file {str(meta_path)!r}: 'weight_files' must list file names beside it")
+    weights: dict[str, torch.Tensor] = {}
+    for name in names:
+        file = meta_path.with_name(name)
+        if not file.is_file():
+            raise BadInput(f"model file {str(path)!r}: its weights {str(file)!r} do not exist")
+        try:
+            part = load_file(str(file))
+        except (SafetensorError, OSError, ValueError) as exc:
+            raise BadInput(f"model file {str(file)!r} is not a valid safetensors file ({exc})") from None
+        if weights.keys() & part.keys():
+            raise BadInput(f"model file {str(file)!r} repeats weights of another of its files")
+        weights.update(part)
+    return meta, weights
+
+
+def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
+    """(meta record, state dict) of a saved model given by its .json, .safetensors, .pt or run
+    folder; BadInput for anything that is not one."""
     path = Path(path)
     if path.is_dir():
-        path = path / "model.safetensors"
-    if path.suffix == ".json":
-        path = path.with_suffix(".safetensors")
-    if not path.is_file():
-        raise BadInput(f"model file {str(path)!r} does not exist")
-    if path.suffix == ".pt":
+        path = path / "model.json"
+    if path.suffix in (".json", ".safetensors"):
+        meta_path = path.with_suffix(".json")
+        if not meta_path.is_file():
+            if not path.is_file():
+                raise BadInput(f"model file {str(path)!r} does not exist")
+            raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it")
+        meta, weights = _read_safetensors(path, meta_path)
+    elif path.suffix == ".pt":
+        if not path.is_file():
+            raise BadInput(f"model file {str(path)!r} does not exist")
         try:
             blob = torch.load(path, map_location="cpu", weights_only=True)
         except Exception as exc:  # the weights-only unpickler refuses anything but tensors and plain data
@@ -97,24 +153,9 @@ def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
                            f"safely ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
         if not isinstance(blob, dict) or not isinstance(blob.get("meta"), str) or not isinstance(blob.get("state_dict"), dict):
             raise BadInput(f"model file {str(path)!r} does not hold {{'meta': json, 'state_dict': tensors}}")
-        meta_text, weights = blob["meta"], blob["state_dict"]
-    elif path.suffix == ".safetensors":
-        meta_path = path.with_suffix(".json")
-        if not meta_path.is_file():
-            raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it")
-        try:
-            weights = load_file(str(path))
-        except (SafetensorError, OSError, ValueError) as exc:
-            raise BadInput(f"model file {str(path)!r} is not a valid safetensors file ({exc})") from None
-        meta_text = meta_path.read_text()
+        meta, weights = _read_meta(path, blob["meta"]), blob["state_dict"]
     else:
-        raise BadInput(f"model file {str(path)!r}: expected a .safetensors (with .json) or .pt file")
-    try:
-        meta = json.loads(meta_text)
-    except json.JSONDecodeError as exc:
-        raise BadInput(f"model file {str(path)!r}: its metadata is not valid JSON ({exc})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise BadInput(f"model file {str(path)!r} is not a {FORMAT} model")
+        raise BadInput(f"model file {str(path)!r}: expected a .json / .safetensors model or a .pt file")
     if not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in weights.items()):
         raise BadInput(f"model file {str(path)!r}: its weights are not a name -> tensor mapping")
     return meta, weights

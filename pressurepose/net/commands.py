@@ -68,7 +68,7 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gender", default=None, help="f or m (one for all images, or comma-separated per image); "
                                                  "may be left out for an HDF5 file with a 'gender' dataset "
                                                  "(e.g. a shard of a generated dataset)")
-    p.add_argument("--model", default=None, help="trained model (.safetensors with its .json, .pt, or a run folder); "
+    p.add_argument("--model", default=None, help="trained model (.json with its .safetensors files, .pt, or a run folder); "
                                                 "default: the shipped model")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")

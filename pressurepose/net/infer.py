@@ -1,7 +1,7 @@
 """Running a trained PressureNet: ``estimate(pressure, gender) -> Estimate`` and its files.
 
 >>> from pressurepose.net.infer import estimate
->>> est = estimate(pressure_image, "f", model="runs/x/model.safetensors")   # (64, 27) mmHg
+>>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg
 >>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
 >>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply, estimate_000.png
 """
@@ -21,7 +21,7 @@ from pressurepose.errors import BadInput
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.pmr import MatGrid
 
-DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.safetensors"
+DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 
 
 @dataclass
@@ -214,7 +214,7 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
         raise BadInput("no trained PressureNet ships with this installation yet; pass a model file "
                        "(--model / model=...) made by `pressurepose train`")
     if path.is_dir():
-        path = path / "model.safetensors"
+        path = path / "model.json"
     if not path.is_file():
         raise BadInput(f"model file {str(path)!r} does not exist")
     return _cached_model(str(path.resolve()), path.stat().st_mtime, None if bodies is None else tuple(map(str, bodies)))

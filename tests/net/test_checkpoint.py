@@ -46,6 +46,24 @@ def test_round_trip(tmp_path, suffix):
         assert load_model(tmp_path / "run")[0].config == net.config  # a training folder loads too
 
 
+def test_split_float16_round_trip(tmp_path):
+    net, body = _net()
+    path = save_model(tmp_path / "m.json", net, (body, body), {"note": "x"}, split_modules=True, dtype=torch.float16)
+    files = sorted(p.name for p in tmp_path.iterdir())
+    assert files == ["m.json", "m.mod1.safetensors", "m.mod2.safetensors"]
+    sizes = [(tmp_path / f).stat().st_size for f in files[1:]]
+    assert max(sizes) < 0.6 * sum(sizes)  # the weights really are divided between the files
+    loaded, meta = load_model(path)
+    assert meta["note"] == "x" and meta["weight_files"] == files[1:]
+    assert all(p.dtype == torch.float32 for p in loaded.parameters())
+    for (k, a), b in zip(net.state_dict().items(), loaded.state_dict().values()):
+        assert torch.equal(a.half().float(), b), k  # exactly the float16 rounding, nothing else
+    assert load_model(tmp_path / "m.safetensors")[0].config == net.config  # the usual name finds it too
+    (tmp_path / "m.mod2.safetensors").unlink()
+    with pytest.raises(BadInput, match="m.mod2.safetensors.*do not exist"):
+        load_model(path)
+
+
 class _Exploit:
     def __reduce__(self):
         return (os.system, (f"touch {self.marker}",))
