@@ -9,7 +9,7 @@ from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, joint_frames
 from pressurepose.body.joints import PARENTS, joint_index as J
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP as Q
 from pressurepose.body.lbs_numpy import rodrigues
-from pressurepose.pose import SamplerConfig, joint_limits, sample_bodies
+from pressurepose.pose import SamplerConfig, joint_limits
 from pressurepose.pose.config import DEFAULT_MATTRESS
 
 # (partition, limbs_on_bed, count, seed): the paper's partitions, kept small for speed

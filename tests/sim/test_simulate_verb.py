@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 
 from pressurepose.body import BodyModel
 from pressurepose.cli import main
