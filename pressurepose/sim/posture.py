@@ -24,10 +24,15 @@ def roll_angle(pose) -> np.ndarray:
         raise BadInput(f"pose has shape {p.shape}; expected finite (..., 72) SMPL pose or (..., 3) root "
                        f"axis-angle")
     Q = Y_UP_TO_Z_UP
-    W = Q @ rodrigues(p[..., :3]) @ Q.T  # world rotation of the z-up rest body
-    front = W @ np.array([0.0, -1.0, 0.0])  # the rest body faces -y
-    left = W @ np.array([1.0, 0.0, 0.0])
-    return np.arctan2(-left[..., 2], front[..., 2])
+    return roll_of_rotation(Q @ rodrigues(p[..., :3]) @ Q.T)
+
+
+def roll_of_rotation(W) -> np.ndarray:
+    """Roll (...,) radians of bodies whose z-up rest body is turned by world rotations W (..., 3, 3)
+    (e.g. the ragdoll root body's ``xmat``): the rest body faces -y and its left is +x, so
+    front_z = -W[2, 1] and left_z = W[2, 0]."""
+    W = np.asarray(W, dtype=np.float64)
+    return np.arctan2(-W[..., 2, 0], -W[..., 2, 1])
 
 
 def posture_class(pose) -> str:
@@ -40,6 +45,9 @@ def posture_class(pose) -> str:
 
 def posture_classes(poses) -> np.ndarray:
     """(B,) posture names of SMPL poses (B, 72) (or root axis-angles (B, 3))."""
-    roll = roll_angle(poses)
-    k = np.floor((roll + np.pi / 4) / (np.pi / 2)).astype(np.int64) % 4
-    return np.array(POSTURES)[k]
+    return np.array(POSTURES)[posture_index(roll_angle(poses))]
+
+
+def posture_index(roll) -> np.ndarray:
+    """Index into ``POSTURES`` of rolls (...,) radians."""
+    return np.floor((np.asarray(roll) + np.pi / 4) / (np.pi / 2)).astype(np.int64) % 4

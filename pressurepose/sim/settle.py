@@ -20,7 +20,9 @@ A sample is rejected, and the cause counted, when it:
 * ``unstable``: produces non-finite numbers, a MuJoCo warning or a capsule faster than 5 m/s;
 * ``fell_off_bed``: its centre of mass leaves the mattress outline, or its pelvis drops more than
   ``fall_depth_m`` below the mattress top;
-* ``posture_changed``: rests in another posture class (supine / prone / lateral) than it started in;
+* ``posture_changed``: leaves the posture class (supine / left or right lateral / prone) it started
+  in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
+  early instead of running on until it rests or falls off), or rests in another class;
 * ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job).
 
 Model choices measured here (``benchmarks/bench_settle.py``, docs/RESULTS.md): elliptic friction cones
@@ -49,7 +51,7 @@ from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
-from pressurepose.sim.posture import posture_class
+from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_of_rotation
 from pressurepose.sim.ragdoll import (LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
                                       limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
                                       ragdoll_params, write_params)
@@ -82,6 +84,7 @@ class SettleConfig:
     iterations, ls_iterations, tolerance: Newton solver settings.
     max_speed_m_s: faster capsule points mean the simulation blew up; fall_depth_m: a pelvis this far
         below the mattress top has fallen off; self_collision_tol_m: start overlap allowed between limbs.
+    posture_check_steps: how often (steps) the posture class is checked while settling.
     """
 
     timestep_s: float = 0.01
@@ -104,10 +107,11 @@ class SettleConfig:
     max_speed_m_s: float = 5.0
     fall_depth_m: float = 0.25
     self_collision_tol_m: float = 0.002
+    posture_check_steps: int = 10
 
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
-                     "taxels_per_cell"):
+                     "taxels_per_cell", "posture_check_steps"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise BadInput(f"settle {name} is {v!r}; expected a positive whole number")
@@ -430,6 +434,11 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
             if not np.isfinite(d.qvel[:nv]).all() or (step % 10 == 0 and _troubled(d)):
                 status = "unstable"
                 break
+            if step % cfg.posture_check_steps == 0:
+                roll = roll_of_rotation(d.xmat[ri.body[0]].reshape(3, 3))
+                if POSTURES[int(posture_index(roll))] != start_posture:
+                    status = "posture_changed"
+                    break
             com = d.subtree_com[ri.body[0]]
             if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or ends[PELVIS, :, 2].min() < pelvis_floor:
                 status = "fell_off_bed"

@@ -1,6 +1,8 @@
 """Physics simulation #1 against known truths: the cell bed's force balance and analytic sinks, a
 settled body's force balance, symmetry, joint limits, mesh agreement, rejections and determinism."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -215,6 +217,15 @@ def test_lateral_body_with_straight_limbs_rolls_and_is_rejected(body):
     res = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED, FAST)
     assert res.posture_start == "left_lateral"
     assert res.status == "posture_changed" and res.posture != "left_lateral"
+    # it is stopped as soon as it leaves its class, not run on until it rests in the new one
+    late = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED,
+                  dataclasses.replace(FAST, posture_check_steps=100_000))
+    assert late.status == "posture_changed" and late.posture == res.posture
+    assert res.steps < late.steps
+    # and not later than one check after it left: a check earlier it was still lying on its side
+    before = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED,
+                    dataclasses.replace(FAST, max_steps=res.steps - FAST.posture_check_steps - 1))
+    assert before.status == "not_settled" and before.posture == "left_lateral"
 
 
 def test_settle_is_deterministic_whatever_ran_before(body, supine):
