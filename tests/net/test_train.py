@@ -87,3 +87,21 @@ def test_bad_training_data_is_refused(tmp_path):
         train({k: v for k, v in data.items() if k != "betas"}, tmp_path, bodies=(body, body), grid=GRID)
     with pytest.raises(BadInput):
         TrainConfig(loss_sigmas="other")
+
+
+def test_tensorboard_log_matches_the_csv(tmp_path):
+    pytest.importorskip("tensorboard")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    data = toy_dataset(6, seed=2, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=1, batch_size=4, lr=1e-4, val_fraction=0.34)
+    train(data, tmp_path, cfg, bodies=(body, body), grid=GRID)
+    events = EventAccumulator(str(tmp_path / "tb"))
+    events.Reload()
+    rows = list(csv.DictReader(open(tmp_path / "log.csv")))
+    for stage, key in (("1", "train_loss"), ("1", "val_mpjpe_cm"), ("2", "train_loss")):
+        logged = [(e.step, e.value) for e in events.Scalars(f"mod{stage}/{key}")]
+        expected = [(int(r["epoch"]), float(r[key])) for r in rows if r["stage"] == stage]
+        assert [s for s, _ in logged] == [s for s, _ in expected]
+        assert [v for _, v in logged] == pytest.approx([v for _, v in expected], rel=1e-6)
