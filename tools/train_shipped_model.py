@@ -7,8 +7,8 @@ set against the mean-pose baseline, and copies the model into the package::
     .venv/bin/python tools/train_shipped_model.py --work runs/shipped --skip-generate
 
 Every step is a ``pressurepose`` CLI call, so each one resumes if interrupted: rerun the same
-command. The defaults are sized for a 2-core laptop-class CPU in about an hour of generation and
-an hour of training; they are far below the paper's 184K samples x 100 epochs x 2 modules, and
+command. The defaults are sized for a 2-core laptop-class CPU: about 40 minutes of generation and
+35 of training (7,200 + 300 samples); they are far below the paper's 184K samples x 100 epochs x 2 modules, and
 the model is correspondingly weaker (see docs/RESULTS.md for what it achieves). For the paper's
 scale use ``pressurepose generate --recipe paper`` and ``pressurepose train`` with its defaults on
 a GPU.
@@ -25,8 +25,7 @@ REPO = Path(__file__).resolve().parents[1]
 ASSETS = REPO / "pressurepose" / "net" / "assets"
 
 # (folder under WORK/data, gender, count, seed): the shipped model's data, all general_supine
-DATA = (("test/f", "f", 150, 902), ("test/m", "m", 150, 903), ("train/f", "f", 300, 900), ("train/m", "m", 300, 901),
-        ("train/f2", "f", 300, 910), ("train/m2", "m", 300, 911))
+DATA = (("test/f", "f", 150, 902), ("test/m", "m", 150, 903), ("train/f", "f", 3600, 900), ("train/m", "m", 3600, 901))
 
 
 def cli(*args: str) -> None:
@@ -41,7 +40,7 @@ def main() -> int:
     p.add_argument("--partition", default="general_supine")
     p.add_argument("--scale", type=float, default=1.0, help="multiply the sample counts")
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--epochs-mod1", type=int, default=12)
+    p.add_argument("--epochs-mod1", type=int, default=10)
     p.add_argument("--epochs-mod2", type=int, default=4)
     p.add_argument("--lr", type=float, default=5e-4, help="Adam lr for Mod1 (paper 2e-5 for 100 epochs)")
     p.add_argument("--lr-mod2", type=float, default=1e-4)
