@@ -20,6 +20,8 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=d.batch_size, help=f"default {d.batch_size}")
     p.add_argument("--lr", type=float, default=d.lr, help=f"Adam learning rate (default {d.lr})")
     p.add_argument("--lr-mod2", type=float, default=None, help="Mod2's learning rate (default: --lr)")
+    p.add_argument("--lr-schedule", choices=("constant", "cosine"), default=d.lr_schedule,
+                   help="constant (the paper) or cosine: each stage's rate falls to 0 over its epochs")
     p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"default {d.weight_decay}")
     p.add_argument("--no-noise", action="store_true", help="train without the noise model (ablation)")
     p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (ablation)")
@@ -44,7 +46,7 @@ def run_train(args) -> int:
 
     data = load_dataset(args.data, limit=args.limit)
     config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
-                         lr=args.lr, lr_mod2=args.lr_mod2, weight_decay=args.weight_decay, noise=not args.no_noise,
+                         lr=args.lr, lr_mod2=args.lr_mod2, lr_schedule=args.lr_schedule, weight_decay=args.weight_decay, noise=not args.no_noise,
                          use_pmr=not args.no_pmr, edges_contact=not args.no_edges_contact,
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every)

@@ -49,6 +49,7 @@ from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import MatGrid, PMRConfig, pmr
 from pressurepose.net.transforms import InputConfig
 
+LR_SCHEDULES = ("constant", "cosine")
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
 
 
@@ -59,7 +60,10 @@ class TrainConfig:
     loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
     training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
     out for the per-epoch validation (seeded split). gain: output gain (:mod:`.outputs`).
-    lr_mod2: Mod2's learning rate (default: lr, as the paper). dropout: the CNN's dropout (paper 0.1). use_pmr, edges_contact, noise: the paper's ablations.
+    lr_mod2: Mod2's learning rate (default: lr, as the paper). lr_schedule: "constant" (the paper)
+    or "cosine" (each stage's rate falls from its lr to 0 along half a cosine over its epochs, set
+    at the start of every epoch). dropout: the CNN's dropout (paper 0.1). use_pmr, edges_contact,
+    noise: the paper's ablations.
     save_every: epochs between resumable states (the last epoch of each stage is always saved).
     device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
     """
@@ -69,6 +73,7 @@ class TrainConfig:
     batch_size: int = 128
     lr: float = 2e-5
     lr_mod2: float | None = None
+    lr_schedule: str = "constant"
     weight_decay: float = 5e-4
     noise: bool = True
     noise_config: NoiseConfig = field(default_factory=NoiseConfig)
@@ -94,6 +99,8 @@ class TrainConfig:
             raise BadInput("batch_size, upsample and save_every must be >= 1")
         if not self.lr > 0 or self.weight_decay < 0 or (self.lr_mod2 is not None and not self.lr_mod2 > 0):
             raise BadInput(f"lr = {self.lr} must be > 0 and weight_decay = {self.weight_decay} >= 0")
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise BadInput(f"lr_schedule = {self.lr_schedule!r}; expected one of {', '.join(LR_SCHEDULES)}")
         if self.loss_sigmas not in ("paper", "data"):
             raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
         if not 0 <= self.val_fraction < 1:
@@ -208,7 +215,7 @@ def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> 
 
 
 class _Logger:
-    FIELDS = ["stage", "epoch", "train_loss", "train_joints_cm", "val_loss", "val_mpjpe_cm", "seconds",
+    FIELDS = ["stage", "epoch", "lr", "train_loss", "train_joints_cm", "val_loss", "val_mpjpe_cm", "seconds",
               "images_per_s"]
 
     def __init__(self, out_dir: Path, history: list[dict]):
@@ -268,8 +275,15 @@ def _load_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, rec
 
 # ---------------------------------------------------------------------------------------- training
 def _optimizer(module: torch.nn.Module, config: TrainConfig, stage: int) -> torch.optim.Optimizer:
+    return torch.optim.Adam(module.parameters(), lr=stage_lr(config, stage), weight_decay=config.weight_decay)
+
+
+def stage_lr(config: TrainConfig, stage: int, epoch: int = 0, epochs: int = 1) -> float:
+    """The learning rate of ``epoch`` (0-based) of ``epochs`` in ``stage`` (1 or 2)."""
     lr = config.lr_mod2 if stage == 2 and config.lr_mod2 is not None else config.lr
-    return torch.optim.Adam(module.parameters(), lr=lr, weight_decay=config.weight_decay)
+    if config.lr_schedule == "cosine":
+        lr *= 0.5 * (1.0 + math.cos(math.pi * epoch / max(epochs, 1)))
+    return lr
 
 
 def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: TrainConfig, maps: bool):
@@ -353,6 +367,8 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
             scaler = torch.amp.GradScaler("cuda", enabled=use_amp and amp_dtype == torch.float16)
             l2 = stage == 2 and config.use_pmr
             for epoch in range(first, epochs):
+                for group in opt.param_groups:
+                    group["lr"] = stage_lr(config, stage, epoch, epochs)
                 seed = _epoch_seed(config.seed, stage, epoch)
                 torch.manual_seed(seed)
                 gen = torch.Generator().manual_seed(seed)
@@ -386,7 +402,8 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     sums["joints"] += float(parts["joints"]) * scales.joints_m * len(idx)
                     count += len(idx)
                 seconds = time.perf_counter() - t0
-                row = {"stage": stage, "epoch": epoch, "train_loss": sums["loss"] / max(count, 1),
+                row = {"stage": stage, "epoch": epoch, "lr": opt.param_groups[0]["lr"],
+                       "train_loss": sums["loss"] / max(count, 1),
                        "train_joints_cm": 100 * sums["joints"] / max(count, 1), "seconds": seconds,
                        "images_per_s": count / max(seconds, 1e-9)}
                 if n_val:

@@ -105,3 +105,17 @@ def test_tensorboard_log_matches_the_csv(tmp_path):
         expected = [(int(r["epoch"]), float(r[key])) for r in rows if r["stage"] == stage]
         assert [s for s, _ in logged] == [s for s, _ in expected]
         assert [v for _, v in logged] == pytest.approx([v for _, v in expected], rel=1e-6)
+
+
+def test_cosine_schedule_sets_each_epochs_rate(tmp_path):
+    data = toy_dataset(4, seed=3, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=4, epochs_mod2=2, batch_size=4, lr=1e-3, lr_mod2=2e-4, lr_schedule="cosine")
+    train(data, tmp_path, cfg, bodies=(body, body), grid=GRID)
+    rows = list(csv.DictReader(open(tmp_path / "log.csv")))
+    got = [(int(r["stage"]), float(r["lr"])) for r in rows]
+    want = [(1, 1e-3), (1, 1e-3 * (1 + 0.5 ** 0.5) / 2), (1, 5e-4), (1, 1e-3 * (1 - 0.5 ** 0.5) / 2), (2, 2e-4), (2, 1e-4)]
+    assert [s for s, _ in got] == [s for s, _ in want]
+    assert [lr for _, lr in got] == pytest.approx([lr for _, lr in want], rel=1e-9)
+    with pytest.raises(BadInput, match="lr_schedule"):
+        TrainConfig(lr_schedule="step")
