@@ -75,6 +75,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
 
     path = Path(path)
     record = {"format": FORMAT, "config": net.config.to_dict(), "bodies": bodies_meta(*bodies), **(meta or {})}
+    record.pop("weight_files", None)  # meta read from another model names that model's files
     weights = {k: v.detach().cpu().contiguous() for k, v in net.state_dict().items()}
     if dtype is not None:
         weights = {k: v.to(dtype) if v.is_floating_point() else v for k, v in weights.items()}

@@ -59,6 +59,10 @@ def test_split_float16_round_trip(tmp_path):
     for (k, a), b in zip(net.state_dict().items(), loaded.state_dict().values()):
         assert torch.equal(a.half().float(), b), k  # exactly the float16 rounding, nothing else
     assert load_model(tmp_path / "m.safetensors")[0].config == net.config  # the usual name finds it too
+    # re-saving a split model's metadata as one file does not keep the old file list
+    one = save_model(tmp_path / "one" / "m.safetensors", net, (body, body), meta)
+    assert "weight_files" not in json.loads(one.with_suffix(".json").read_text())
+    assert load_model(one)[1]["note"] == "x"
     (tmp_path / "m.mod2.safetensors").unlink()
     with pytest.raises(BadInput, match="m.mod2.safetensors.*do not exist"):
         load_model(path)
