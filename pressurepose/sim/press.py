@@ -6,6 +6,12 @@ tilts about its centre of mass until the foundation (:mod:`pressurepose.sim.foun
 exactly its weight with no net moment; the cell forces are summed per taxel and read through the
 sensor model (:mod:`pressurepose.sim.sensor`).
 
+A limb hanging over the mattress's edge is beside the mattress, not on it: the mattress carries the
+body only where its surface lies above the mattress's bottom (``bed.mattress_thickness_m`` below
+the unloaded top) where the mesh is given, so the mesh must be given at (or near) its resting
+height, as physics simulation #1 leaves it. A mesh given higher is pressed as a whole; a mesh
+given lower than it rests loses support it should have.
+
 >>> res = press(vertices, faces, mass_kg=62.5, bed=get_bed("boditrak_bt3510"))
 >>> res.pressure.shape, res.force.sum() <= 62.5 * 9.81
 ((64, 27), True)
@@ -153,6 +159,9 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
 
     vertices (V, 3) bed frame, metres; faces (F, 3) int, a closed surface (either winding).
     ``com_xy`` overrides the centre of mass's x, y (default: the mesh's volume centroid).
+    Surface deeper than the mattress's bottom (``-bed.mattress_thickness_m``) is beside the
+    mattress (a limb hanging over its edge) and is left out: the cells over it read the body's
+    lowest surface above that depth, or nothing.
     """
     bed = _check_bed(bed)
     verts, tris = _check_mesh(vertices, faces)
@@ -169,7 +178,8 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
     normal_z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     down = tris[normal_z * np.sign(volume) < 0]
     grid = press_grid(bed)
-    return Heightfield(lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape), com, grid)
+    bottom = lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape, floor=-bed.mattress_thickness_m)
+    return Heightfield(bottom, com, grid)
 
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,
@@ -177,7 +187,8 @@ def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy
           max_passes: int = 4) -> PressResult:
     """Rest a rigid body mesh on the bed and read the pressure mat.
 
-    vertices (V, 3) bed frame, metres (anywhere above or in the bed: the press finds the height);
+    vertices (V, 3) bed frame, metres, at the body's resting height or above it (the press finds
+    the height; surface deeper than the mattress's bottom hangs beside it: see the module doc);
     faces (F, 3) int, a closed surface (either winding); mass_kg > 0. ``com_xy`` overrides the
     centre of mass's x, y (default: the mesh's volume centroid). ``margin_m``: the Pasternak
     foundation is solved on the part of the bed within this distance of the body (default

@@ -6,15 +6,15 @@ import numpy as np
 
 
 def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[float, float],
-                  cell_xy: tuple[float, float], shape: tuple[int, int]) -> np.ndarray:
-    """Lowest z of the mesh above the centre of every grid cell.
+                  cell_xy: tuple[float, float], shape: tuple[int, int], floor: float = -np.inf) -> np.ndarray:
+    """Lowest z of the mesh above the centre of every grid cell, ignoring points below ``floor``.
 
     vertices (V, 3) and faces (F, 3) in metres; the grid has ``shape = (ny, nx)`` cells of size
     ``cell_xy = (dx, dy)`` with its corner at ``origin_xy``; cell (j, i) is centred at
     ``origin + ((i + 0.5) dx, (j + 0.5) dy)``. Returns (ny, nx) heights, ``+inf`` where no triangle
     lies over the centre. Each triangle is interpolated linearly at the cell centres inside its
-    projection (edges included), and the lowest value wins, so for a closed mesh the result is its
-    lower surface sampled at the cell centres.
+    projection (edges included), and the lowest value at or above ``floor`` (m) wins, so for a
+    closed mesh the result is its lower surface sampled at the cell centres.
     """
     ny, nx = shape
     dx, dy = cell_xy
@@ -57,5 +57,6 @@ def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[floa
     inside = (l1 >= -tol) & (l2 >= -tol) & (l1 + l2 <= 1 + tol)
     t, l1, l2 = t[inside], l1[inside], l2[inside]
     z = tri[t, 0, 2] + l1 * (tri[t, 1, 2] - tri[t, 0, 2]) + l2 * (tri[t, 2, 2] - tri[t, 0, 2])
-    np.minimum.at(out, jj[inside] * nx + ii[inside], z)
+    above = z >= floor
+    np.minimum.at(out, (jj[inside] * nx + ii[inside])[above], z[above])
     return out.reshape(ny, nx)

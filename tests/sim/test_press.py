@@ -70,6 +70,18 @@ def test_raster_takes_the_lowest_surface_of_a_closed_mesh():
     np.testing.assert_allclose(h[filled], 0.03, atol=1e-12)
 
 
+
+def test_raster_ignores_surface_below_the_floor():
+    """A triangle sloping from z = 0 down to z = -1: below the floor it is not there."""
+    grid_shape, origin, cell = (20, 20), (0.0, 0.0), (0.01, 0.01)
+    v = np.array([[0.0, 0.0, 0.0], [0.2, 0.0, -1.0], [0.0, 0.2, 0.0]])
+    full = lower_surface(v, np.array([[0, 1, 2]]), origin, cell, grid_shape)
+    cut = lower_surface(v, np.array([[0, 1, 2]]), origin, cell, grid_shape, floor=-0.5)
+    kept = np.isfinite(full) & (full >= -0.5)
+    np.testing.assert_array_equal(np.isfinite(cut), kept)
+    np.testing.assert_array_equal(cut[kept], full[kept])
+    assert (np.isfinite(full) & ~kept).any()
+
 # ------------------------------------------------------------------ balance and closed forms
 @pytest.mark.parametrize("coupling", [0.0, 60.0])
 @pytest.mark.parametrize("mass", [3.0, 25.0, 80.0])
@@ -313,6 +325,27 @@ def test_other_mats_press_too():
         assert res.pressure.shape == bed.mat.shape
         assert res.bed_force.sum() == pytest.approx(40 * GRAVITY, rel=1e-6)
 
+
+
+@pytest.mark.parametrize("coupling", [0.0, 60.0])
+def test_a_limb_hanging_beside_the_mattress_carries_no_load(coupling):
+    """A torso lying at the mattress's side edge with a limb hanging down beside it (2 cm of the
+    limb over the mattress, as a settled mesh spills over the edge): the mattress carries the
+    weight under the torso only, exactly as if the limb were not there (same mass and centre of
+    mass), and the hanging limb does not make the body "sink through the mattress"."""
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=coupling)
+    x_edge = bed.mattress_bounds[1]
+    torso = trimesh.creation.box(extents=[0.3, 0.5, 0.15]).apply_translation([x_edge - 0.15, 0.9, 0.04])
+    limb = trimesh.creation.box(extents=[0.08, 0.1, 0.6]).apply_translation([x_edge + 0.02, 0.9, -0.25])
+    hanging = trimesh.util.concatenate([torso, limb])
+    com_xy = (x_edge - 0.15, 0.9)  # over the torso's centre: no tilt, so the centres' heights do not matter
+    with_limb = press(*_mesh(hanging), 30.0, bed, com_xy=com_xy)
+    without = press(*_mesh(torso), 30.0, bed, com_xy=com_xy)
+    assert with_limb.bed_force.sum() == pytest.approx(30.0 * GRAVITY, rel=1e-6)
+    np.testing.assert_allclose(with_limb.bed_force, without.bed_force, atol=1e-9 * 30.0 * GRAVITY)
+    assert with_limb.sink_m == pytest.approx(without.sink_m, abs=1e-9)
+    # the limb's columns inside the mattress take load only where the torso is over them
+    assert with_limb.sink_m < 0.1
 
 # ------------------------------------------------------------------ failures
 def test_bad_inputs_are_named():
