@@ -46,21 +46,25 @@ def rigid_jacobian(x: np.ndarray, y: np.ndarray, com_xy) -> np.ndarray:
     return np.stack([np.ones_like(x), x - com_xy[0], y - com_xy[1]], axis=1)
 
 
+def level_sink(b0: np.ndarray, k_cell: float, weight_n: float) -> float:
+    """The shift s (m) down at which cells with bottoms ``b0`` (n,) on independent springs
+    ``k_cell`` (N/m) carry ``weight_n`` without turning: ``k sum max(0, s - b0) = W``, exactly."""
+    # the force is piecewise linear in s: when s equals order[m] it is k (m s - sum_{i<m} order[i])
+    order = np.sort(b0)
+    n = np.arange(1, len(order) + 1)
+    csum = np.cumsum(order)
+    f_at = k_cell * (n[:-1] * order[1:] - csum[:-1])
+    m = int(np.searchsorted(f_at, weight_n)) + 1  # number of cells in contact at the answer
+    return float((weight_n / k_cell + csum[m - 1]) / m)
+
+
 def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell: float, weight_n: float,
                   max_slope: float = 0.3, max_iter: int = 100) -> ContactSolution:
     """Rigid body on independent springs ``k_cell`` (N/m) under cells with bottoms ``b0`` (n,).
 
     Newton's method on the convex, piecewise-quadratic energy in q; exact to round-off.
     """
-    # first a level sink (slopes 0), found exactly: the force is piecewise linear in the sink s
-    order = np.sort(b0)
-    n = np.arange(1, len(order) + 1)
-    csum = np.cumsum(order)
-    # force when the sink level s equals order[m] is k (m s - sum_{i<m} order[i]) with m below it
-    f_at = k_cell * (n[:-1] * order[1:] - csum[:-1])
-    m = int(np.searchsorted(f_at, weight_n)) + 1  # number of cells in contact at the answer
-    s = (weight_n / k_cell + csum[m - 1]) / m
-    q = np.array([-s, 0.0, 0.0])
+    q = np.array([-level_sink(b0, k_cell, weight_n), 0.0, 0.0])
     target = np.array([weight_n, 0.0, 0.0])
 
     def energy(qq):

@@ -6,11 +6,13 @@ tilts about its centre of mass until the foundation (:mod:`pressurepose.sim.foun
 exactly its weight with no net moment; the cell forces are summed per taxel and read through the
 sensor model (:mod:`pressurepose.sim.sensor`).
 
-A limb hanging over the mattress's edge is beside the mattress, not on it: the mattress carries the
-body only where its surface lies above the mattress's bottom (``bed.mattress_thickness_m`` below
-the unloaded top) where the mesh is given, so the mesh must be given at (or near) its resting
-height, as physics simulation #1 leaves it. A mesh given higher is pressed as a whole; a mesh
-given lower than it rests loses support it should have.
+A limb hanging over the mattress's edge is beside the mattress, not on it, though the settled mesh
+spills a few cm over the edge: the mattress carries the body only where its surface lies above the
+mattress's bottom (``bed.mattress_thickness_m`` below the unloaded top) where the mesh is given,
+and cells within ``EDGE_ZONE_M`` of the mattress's edges that the body would press through the
+mattress (the hanging limb's sides) carry nothing. So the mesh must be given at (or near) its
+resting height, as physics simulation #1 leaves it; a mesh given lower than it rests loses support
+it should have. A body pressed through the mattress anywhere else fails (:class:`PressFailed`).
 
 >>> res = press(vertices, faces, mass_kg=62.5, bed=get_bed("boditrak_bt3510"))
 >>> res.pressure.shape, res.force.sum() <= 62.5 * 9.81
@@ -27,7 +29,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
-from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, rigid_jacobian,
+from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, level_sink, rigid_jacobian,
                                          solve_pasternak, solve_winkler)
 from pressurepose.sim.raster import lower_surface
 from pressurepose.sim.sensor import GRAVITY, read_sensor
@@ -37,6 +39,11 @@ from pressurepose.sim.sensor import GRAVITY, read_sensor
 DEPTH_EMPTY_M = 1.0
 # A body that must turn further than this to find its support was not at rest: it tips over.
 MAX_TILT_RAD = 0.3
+# Cells pressed through the mattress within this distance of its side or end edges hold the sides
+# of a limb hanging over the edge (a settled mesh spills a few cm over it): they are dropped and the
+# contact solved again, at most MAX_EDGE_ROUNDS times. Pressed through anywhere else, the body fails.
+EDGE_ZONE_M = 0.06
+MAX_EDGE_ROUNDS = 3
 
 __all__ = ["press", "press_heightfield", "body_heightfield", "Heightfield", "PressResult", "PressFailed",
            "PressGrid", "press_grid", "mesh_centroid", "tilt_transform", "GRAVITY", "DEPTH_EMPTY_M"]
@@ -242,29 +249,22 @@ def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m
         raise BadInput("the heightfield was sampled on another bed's grid; sample it with this bed")
     weight = float(mass_kg) * GRAVITY
     b0, com = hf.bottom, hf.com
-    under = np.isfinite(b0)
-    if not under.any():
-        raise PressFailed("the body is not over the mattress")
-    xs, ys = grid.centers()
-    jj, ii = np.nonzero(under)
-    jac = rigid_jacobian(xs[ii], ys[jj], com[:2])
-    dx, dy = grid.cell_xy
-    sol = solve_winkler(b0[under], jac, bed.stiffness_n_m3 * dx * dy, weight, max_slope=MAX_TILT_RAD)
-    iterations = sol.iterations
-    if bed.coupling_n_m > 0:
-        margin = max(0.15, 6.0 * bed.spread_length_m) if margin_m is None else float(margin_m)
-        j0, j1 = _fast_window(jj.min(), jj.max() + 1, math.ceil(margin / dy), grid.shape[0])
-        i0, i1 = _fast_window(ii.min(), ii.max() + 1, math.ceil(margin / dx), grid.shape[1])
-        found = PasternakFoundation((j1 - j0, i1 - i0), grid.cell_xy, bed.stiffness_n_m3, bed.coupling_n_m)
-        flat = (jj - j0) * (i1 - i0) + (ii - i0)
-        sol = solve_pasternak(b0[under], jac, flat, found, weight, sol.lam, tol=tol, max_slope=MAX_TILT_RAD)
-        iterations += sol.iterations
-
-    bottom = np.full(grid.shape, np.inf)
-    bottom[under] = b0[under] + jac @ sol.q
-    sink = float(-bottom[under].min())
-    if sink > bed.mattress_thickness_m:
-        raise PressFailed(f"the body sinks {sink:.2f} m, through the {bed.mattress_thickness_m:.2f} m mattress")
+    edge = _edge_zone(grid, bed)
+    b0 = _drop_hanging_sides(b0, edge, bed.stiffness_n_m3 * grid.cell_xy[0] * grid.cell_xy[1], weight,
+                             bed.mattress_thickness_m)
+    iterations = 0
+    for attempt in range(MAX_EDGE_ROUNDS + 1):
+        under, jac, sol, its = _contact_solve(b0, com, grid, bed, weight, margin_m, tol)
+        iterations += its
+        bottom = np.full(grid.shape, np.inf)
+        bottom[under] = b0[under] + jac @ sol.q
+        sink = float(-bottom[under].min())
+        through = bottom < -bed.mattress_thickness_m
+        if not through.any():
+            break
+        if (through & ~edge).any() or attempt == MAX_EDGE_ROUNDS:
+            raise PressFailed(f"the body sinks {sink:.2f} m, through the {bed.mattress_thickness_m:.2f} m mattress")
+        b0 = np.where(through, np.inf, b0)
     lam = np.zeros(grid.shape)
     lam[under] = sol.lam
     bed_force = grid.per_taxel(lam)
@@ -283,6 +283,57 @@ def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m
         sink_m=sink,
         iterations=iterations,
     )
+
+
+def _contact_solve(b0: np.ndarray, com: np.ndarray, grid: PressGrid, bed: BedSpec, weight: float,
+                   margin_m: float | None, tol: float):
+    """The contact solve over the cells with a body above them: (under (ny, nx) bool, jacobian,
+    ContactSolution, iterations)."""
+    under = np.isfinite(b0)
+    if not under.any():
+        raise PressFailed("the body is not over the mattress")
+    xs, ys = grid.centers()
+    jj, ii = np.nonzero(under)
+    jac = rigid_jacobian(xs[ii], ys[jj], com[:2])
+    dx, dy = grid.cell_xy
+    sol = solve_winkler(b0[under], jac, bed.stiffness_n_m3 * dx * dy, weight, max_slope=MAX_TILT_RAD)
+    iterations = sol.iterations
+    if bed.coupling_n_m > 0:
+        margin = max(0.15, 6.0 * bed.spread_length_m) if margin_m is None else float(margin_m)
+        j0, j1 = _fast_window(jj.min(), jj.max() + 1, math.ceil(margin / dy), grid.shape[0])
+        i0, i1 = _fast_window(ii.min(), ii.max() + 1, math.ceil(margin / dx), grid.shape[1])
+        found = PasternakFoundation((j1 - j0, i1 - i0), grid.cell_xy, bed.stiffness_n_m3, bed.coupling_n_m)
+        flat = (jj - j0) * (i1 - i0) + (ii - i0)
+        sol = solve_pasternak(b0[under], jac, flat, found, weight, sol.lam, tol=tol, max_slope=MAX_TILT_RAD)
+        iterations += sol.iterations
+    return under, jac, sol, iterations
+
+
+def _drop_hanging_sides(b0: np.ndarray, edge: np.ndarray, k_cell: float, weight: float,
+                        thickness: float) -> np.ndarray:
+    """``b0`` (ny, nx) heights without the edge-zone cells that a level sink of the body (springs
+    ``k_cell`` N/m per cell, ``weight`` N) pushes deeper than ``thickness`` (the sides of a limb
+    hanging over the mattress's edge): a first guess, made before those sides can turn the body
+    in the contact solve."""
+    b0 = b0.copy()
+    for _ in range(MAX_EDGE_ROUNDS):
+        finite = np.isfinite(b0)
+        if not finite.any():
+            break
+        through = finite & edge & (b0 - level_sink(b0[finite], k_cell, weight) < -thickness)
+        if not through.any():
+            break
+        b0[through] = np.inf
+    return b0
+
+
+def _edge_zone(grid: PressGrid, bed: BedSpec) -> np.ndarray:
+    """(ny, nx) bool: press cells within ``EDGE_ZONE_M`` of the mattress's edges."""
+    x0, x1, y0, y1 = bed.mattress_bounds
+    xs, ys = grid.centers()
+    near_x = (xs - x0 < EDGE_ZONE_M) | (x1 - xs < EDGE_ZONE_M)
+    near_y = (ys - y0 < EDGE_ZONE_M) | (y1 - ys < EDGE_ZONE_M)
+    return near_x[None, :] | near_y[:, None]
 
 
 def _check_bed(bed) -> BedSpec:
