@@ -8,7 +8,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-BENCHMARKS = ("bench_body", "bench_sampler", "bench_press", "bench_settle", "bench_data", "bench_net",
+BENCHMARKS = ("bench_body", "bench_sampler", "bench_press", "bench_settle", "bench_simulate", "bench_data", "bench_net",
               "bench_calibrate")
 
 
