@@ -18,6 +18,14 @@ theirs as MuJoCo joint ranges. A MuJoCo ball joint can only limit a cone, so bal
 penalty torque outside the per-axis box instead (:func:`limit_torques`, applied by the settle loop):
 the exact gradient of ``k/2 |r - clip(r, lower, upper)|^2``, stiff enough to hold a leg's weight
 within a few degrees, soft enough for the explicit step.
+
+Trunk contact. The four trunk capsules (pelvis, spine, spine1, spine2) lie across the body, and the
+fitted ones reach past the sides of the body's mesh (by 1-9 cm over SMPL shapes: their round caps
+stand in for the hips' and shoulders' bulk). Lying on its side, a body would rest on those caps,
+outside its own surface and with its centre of mass raised by as much, which tips lateral bodies
+over. So each trunk capsule's *contact* geom is shortened to the mesh's half-width around it
+(:func:`trunk_contact_lengths`); its mass and inertia, and the capsule the settle reports, stay the
+fitted capsule's.
 """
 
 from __future__ import annotations
@@ -29,7 +37,7 @@ import numpy as np
 
 from pressurepose.body.capsules import CAPSULE_JOINTS, CAPSULE_NAMES, NUM_CAPSULES, Capsules, capsules_for
 from pressurepose.body.joints import JOINT_NAMES, NUM_JOINTS, PARENTS
-from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, shaped_rest
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rest_joints, shaped_rest
 from pressurepose.body.masses import CapsuleMasses, joint_frame_mass_properties, segment_masses
 from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput
@@ -61,6 +69,15 @@ LIMIT_STIFFNESS_FACTOR = 300.0
 # the pose sampler's self-collision check has it; the trunk capsules do not collide with each other
 # (they overlap by design).
 BED_BIT, LIMB_BIT = 1, 2
+# Trunk capsule -> the SMPL joints whose skinned vertices make up the body's side around it (the
+# pelvis takes the hips' vertices, which form the side of the hips; the chest takes the collars').
+TRUNK_SIDE_JOINTS = {
+    CAPSULE_NAMES.index("pelvis"): ("pelvis", "left_hip", "right_hip", "spine1"),
+    CAPSULE_NAMES.index("spine"): ("pelvis", "left_hip", "right_hip", "spine1", "spine2"),
+    CAPSULE_NAMES.index("spine1"): ("spine1", "spine2", "spine3", "left_collar", "right_collar"),
+    CAPSULE_NAMES.index("spine2"): ("spine2", "spine3", "neck", "left_collar", "right_collar"),
+}
+MIN_CONTACT_LENGTH_M = 1e-3
 SELF_COLLIDING = ("left_calf", "right_calf", "left_foot", "right_foot", "left_forearm", "right_forearm",
                   "left_hand", "right_hand")
 
@@ -156,6 +173,7 @@ class RagdollParams:
     capsule_rot: np.ndarray
     radius: np.ndarray
     length: np.ndarray
+    contact_length: np.ndarray
     mass: np.ndarray
     com: np.ndarray
     inertia: np.ndarray
@@ -179,6 +197,30 @@ def capsule_parents() -> np.ndarray:
             p = PARENTS[p]
         out.append(index[p] if p >= 0 else -1)
     return np.array(out)
+
+
+def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
+    """(20,) m: cylinder lengths of the capsules' contact geoms for shape ``betas`` (S,).
+
+    A trunk capsule (:data:`TRUNK_SIDE_JOINTS`) is shortened so that its caps end at the side of the
+    body's rest mesh: the farthest vertex, along the capsule's axis, among those skinned mostly to
+    the capsule's trunk joints and lying within one radius of its axis (at least
+    ``MIN_CONTACT_LENGTH_M``: MuJoCo needs a cylinder part). Never lengthened; the limb
+    capsules keep their length. A body without such vertices (e.g. a coarse toy) keeps every length.
+    """
+    v, J = rest_joints(body.arrays, np.asarray(betas, dtype=np.float64)[None])
+    v, J = v[0], J[0]
+    owner = np.asarray(body.arrays.weights).argmax(axis=1)
+    out = np.asarray(caps.length, dtype=np.float64).copy()
+    for k, names in TRUNK_SIDE_JOINTS.items():
+        R = caps.rest_transform[k, :3, :3]
+        local = (v - J[CAPSULE_JOINTS[k]] - caps.rest_transform[k, :3, 3]) @ R  # capsule frame
+        near = np.isin(owner, [JOINT_NAMES.index(n) for n in names]) & (np.hypot(local[:, 0], local[:, 1])
+                                                                          < caps.radius[k])
+        if near.any():
+            half_width = np.abs(local[near, 2]).max()
+            out[k] = min(out[k], max(2.0 * (half_width - caps.radius[k]), MIN_CONTACT_LENGTH_M))
+    return out
 
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,
@@ -212,7 +254,8 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
     return RagdollParams(
         offset=offset, parent=parent, capsule_center=caps.rest_transform[:, :3, 3].copy(),
         capsule_rot=caps.rest_transform[:, :3, :3].copy(), radius=np.asarray(caps.radius, float),
-        length=np.asarray(caps.length, float), mass=np.asarray(masses.mass, float), com=com,
+        length=np.asarray(caps.length, float), contact_length=trunk_contact_lengths(body, betas, caps),
+        mass=np.asarray(masses.mass, float), com=com,
         inertia=principal, inertia_rot=axes, total_mass=float(masses.total), stiffness=stiffness, damping=DAMPING_PER_STIFFNESS_S * stiffness,
         lower=np.asarray(limits.lower, float)[joints], upper=np.asarray(limits.upper, float)[joints],
         limited=np.asarray(limits.limited, bool)[joints],
@@ -259,7 +302,7 @@ def add_ragdoll(spec: mujoco.MjSpec, params: RagdollParams, *, self_collision: b
                         damping=float(params.damping[k]))
         limb = CAPSULE_NAMES[k] in SELF_COLLIDING
         b.add_geom(name=body_name(k), type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                   size=[float(params.radius[k]), 0.5 * float(params.length[k]), 0.0],
+                   size=[float(params.radius[k]), 0.5 * float(params.contact_length[k]), 0.0],
                    pos=params.capsule_center[k].tolist(), quat=rotation_to_quat(params.capsule_rot[k]).tolist(),
                    contype=LIMB_BIT if (limb and self_collision) else 0,
                    conaffinity=BED_BIT | LIMB_BIT, condim=3, friction=[friction, 0.005, 0.0001],
@@ -308,7 +351,7 @@ def write_params(model: mujoco.MjModel, index: RagdollIndex, params: RagdollPara
     model.body_inertia[b] = params.inertia
     model.geom_pos[g] = params.capsule_center
     model.geom_quat[g] = rotation_to_quat(params.capsule_rot)
-    half = 0.5 * params.length
+    half = 0.5 * params.contact_length
     model.geom_size[g] = np.stack([params.radius, half, np.zeros_like(half)], axis=1)
     model.geom_rbound[g] = params.radius + half
     model.geom_aabb[g] = np.stack([np.zeros_like(half)] * 3 + [params.radius, params.radius, params.radius + half],

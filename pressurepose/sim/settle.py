@@ -313,11 +313,14 @@ def settle_model(bed: BedSpec, config: SettleConfig, params: RagdollParams) -> S
     return _MODELS[key]
 
 
-def capsule_ends(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex) -> np.ndarray:
-    """(20, 2, 3) world axis-segment ends of the ragdoll's capsules (end 0 at local z = -length/2)."""
+def capsule_ends(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex,
+                 length: np.ndarray | None = None) -> np.ndarray:
+    """(20, 2, 3) world axis-segment ends of the ragdoll's capsules (end 0 at local z = -length/2).
+    length: (20,) m cylinder lengths, e.g. ``RagdollParams.length`` (the body's capsules); default the
+    contact geoms' (shorter for the trunk, see :mod:`pressurepose.sim.ragdoll`)."""
     g = index.geom
     axis = data.geom_xmat[g].reshape(-1, 3, 3)[:, :, 2]
-    half = model.geom_size[g, 1][:, None]
+    half = (model.geom_size[g, 1] if length is None else 0.5 * np.asarray(length))[:, None]
     c = data.geom_xpos[g]
     return np.stack([c - half * axis, c + half * axis], axis=1)
 
@@ -402,7 +405,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     radius = params.radius
     # drop: lowest capsule point at the clearance height
     mujoco.mj_kinematics(m, d)
-    low = (capsule_ends(m, d, ri)[..., 2] - radius[:, None]).min()
+    low = (capsule_ends(m, d, ri)[..., 2] - radius[:, None]).min()  # the contact geoms' lowest point
     d.qpos[ri.qpos[0] + 2] += cfg.drop_clearance_m - low
     mujoco.mj_forward(m, d)
     start_posture = posture_class(pose)
@@ -466,7 +469,8 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     if status == "settled" and posture != start_posture:
         status = "posture_changed"
     return SettleResult(status=status, pose=out_pose, transl=out_transl, betas=betas.copy(), gender=str(gender),
-                        steps=step, touch_step=touch, capsules=capsule_ends(m, d, ri), radius=radius.copy(),
+                        steps=step, touch_step=touch, capsules=capsule_ends(m, d, ri, params.length),
+                        radius=radius.copy(),
                         posture_start=start_posture, posture=posture, mass_kg=params.total_mass,
                         bed_force_n=float(cell_forces(d, sm.cell_index).sum()),
                         max_sink_m=float(-cell_sink(d, sm.cell_index).min()))

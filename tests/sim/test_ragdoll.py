@@ -134,7 +134,8 @@ def test_pose_round_trip_through_qpos(params, solo):
 
 
 def test_ragdoll_capsules_match_the_body_model(body, params, solo):
-    """MuJoCo's kinematics of the ragdoll puts every capsule where posed_capsules puts the mesh's."""
+    """MuJoCo's kinematics of the ragdoll puts every capsule where posed_capsules puts the mesh's
+    (with the body's capsule lengths; the contact geoms are the same segments, the trunk's shorter)."""
     model, data, index = solo
     caps = capsules_for(body, BETAS)
     rng = np.random.default_rng(5)
@@ -144,11 +145,34 @@ def test_ragdoll_capsules_match_the_body_model(body, params, solo):
         mujoco.mj_kinematics(model, data)
         g = index.geom
         axis = data.geom_xmat[g].reshape(-1, 3, 3)[:, :, 2]
-        half = model.geom_size[g, 1][:, None]
+        half = 0.5 * params.length[:, None]
         ends = np.stack([data.geom_xpos[g] - half * axis, data.geom_xpos[g] + half * axis], axis=1)
         mesh_ends, radius = posed_capsules(body, caps, BETAS, pose[None], transl[None])
         np.testing.assert_allclose(ends, mesh_ends[0], atol=1e-9)
         np.testing.assert_allclose(model.geom_size[g, 0], radius)
+        np.testing.assert_allclose(model.geom_size[g, 1], 0.5 * params.contact_length)
+
+
+@pytest.mark.parametrize("gender", ["female", "male"])
+def test_trunk_contact_ends_at_the_side_of_the_mesh(gender):
+    """The trunk capsules of the shipped bodies reach past the mesh's sides; their contact geoms end
+    no farther out than the side of the rest mesh (the widest within 5 mm of it); the limbs' keep the
+    capsule's length."""
+    body = BodyModel(gender)
+    for betas in (np.zeros(10), np.r_[3.0, -3.0, np.zeros(8)], np.r_[-3.0, 3.0, np.zeros(8)]):
+        caps = capsules_for(body, betas)
+        p = rd.ragdoll_params(body, betas, gender, caps=caps)
+        trunk = sorted(rd.TRUNK_SIDE_JOINTS)
+        limbs = [k for k in range(20) if k not in rd.TRUNK_SIDE_JOINTS]
+        np.testing.assert_array_equal(p.contact_length[limbs], p.length[limbs])
+        assert np.all(p.contact_length[trunk] < p.length[trunk])  # every trunk capsule sticks out
+        v, _ = body.forward(betas, np.zeros(72))  # rest pose, centred on x = 0
+        side_joints = [joint_index(n) for names in rd.TRUNK_SIDE_JOINTS.values() for n in names]
+        half_width = np.abs(v[0, np.isin(body.arrays.weights.argmax(1), side_joints), 0]).max()
+        tips = (p.contact_length / 2 + p.radius)[trunk]
+        assert np.all(tips <= half_width + 1e-3)
+        assert tips.max() == pytest.approx(half_width, abs=0.005)  # the widest reaches the body's side
+        assert (p.length / 2 + p.radius)[trunk].max() > half_width + 0.01
 
 
 def test_home_pose_has_arms_at_the_sides_and_straight_legs(body):

@@ -16,7 +16,7 @@ from pressurepose.sim.bed import get_bed
 from pressurepose.sim.calibrate import fit_settle_stiffness
 from pressurepose.sim.cellbed import cell_bed, rigid_sink
 from pressurepose.sim.posture import posture_class, posture_classes, roll_angle
-from pressurepose.sim.ragdoll import home_pose
+from pressurepose.sim.ragdoll import home_pose, ragdoll_params
 from pressurepose.sim.settle import BODY_PART_CAPSULES, SettleConfig, calibrate_stiffness, settle, settle_sink_fn
 
 G = 9.81
@@ -226,6 +226,32 @@ def test_lateral_body_with_straight_limbs_rolls_and_is_rejected(body):
     before = settle(body, BETAS, pose, centre_transl(body, pose), "female", BED,
                     dataclasses.replace(FAST, max_steps=res.steps - FAST.posture_check_steps - 1))
     assert before.status == "not_settled" and before.posture == "left_lateral"
+
+
+# A `general` female body (sampler seed 13, body 50, 4 decimals) lying on her left side, roll 95.6 deg.
+LATERAL_BETAS = np.array([0.1452, 1.2861, 2.9573, 0.2815, 0.9633, 2.7508, 0.5943, -0.3099, -1.1139, 2.9319])
+LATERAL_POSE = np.zeros(72)
+LATERAL_POSE[[0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 15]] = [1.5166, -1.42, -0.9136, -0.6728, -0.29, -0.0795, -0.4983,
+                                                     0.4179, 0.0482, 2.1568, 1.7733]
+LATERAL_POSE[39:45] = [0.3662, -0.4587, -0.0938, 0.444, 0.5174, -0.0643]
+LATERAL_POSE[48:54] = [0.7324, -0.9174, -0.1876, 0.888, 1.0348, -0.1286]
+LATERAL_POSE[[55, 58]] = [-0.7612, 0.5166]
+LATERAL_TRANSL = np.array([0.3676, 0.9666, 0.3083])
+
+
+def test_lateral_body_rests_on_its_side_not_on_capsule_caps_outside_it():
+    """The trunk contact ends at the body's side: this lateral body stays on its side (within 10
+    degrees). With the fitted trunk capsules as contacts, whose caps stand outside its sides, the
+    same body rolls onto its front."""
+    female = BodyModel("female")
+    assert posture_class(LATERAL_POSE) == "left_lateral"
+    res = settle(female, LATERAL_BETAS, LATERAL_POSE, LATERAL_TRANSL, "female", BED, FAST)
+    assert res.status == "settled", res.status
+    assert abs(roll_angle(res.pose) - roll_angle(LATERAL_POSE)) < np.deg2rad(10)
+    params = ragdoll_params(female, LATERAL_BETAS, "female")
+    wide = dataclasses.replace(params, contact_length=params.length)
+    rolled = settle(female, LATERAL_BETAS, LATERAL_POSE, LATERAL_TRANSL, "female", BED, FAST, params=wide)
+    assert rolled.status == "posture_changed" and rolled.posture == "prone"
 
 
 def test_settle_is_deterministic_whatever_ran_before(body, supine):
