@@ -19,6 +19,11 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gender", required=True, help="f or m (the shipped female or male body model)")
     p.add_argument("--limbs-on-bed", action="store_true",
                    help="every elbow, wrist, hand, knee, ankle and foot starts over the mattress")
+    p.add_argument("--height-reference", choices=("proximal", "bed"), default="proximal",
+                   help="distal joints (ankles, wrists) start within 0.2 m of their hip's or shoulder's "
+                        "height (proximal, the public code's rule, default) or between 0.1 m below and 0.3 m "
+                        "above the surface the body lies on (bed: keeps the upper limbs of a body on its "
+                        "side near the bed, so fewer lateral bodies roll over while settling)")
     p.add_argument("--count", type=int, required=True, help="number of bodies")
     p.add_argument("--seed", type=int, required=True, help="random seed (whole number >= 0)")
     p.add_argument("--model", default=None,
@@ -36,7 +41,7 @@ def run_sample(args) -> int:
 
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
-    config = SamplerConfig()
+    config = SamplerConfig(height_reference=args.height_reference)
     t0 = time.perf_counter()
     batch = sample_bodies(args.partition, gender, args.count, args.seed, limbs_on_bed=args.limbs_on_bed,
                           body=body, config=config)

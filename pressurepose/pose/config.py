@@ -16,6 +16,7 @@ _MAT_W, _MAT_L = 39 * 0.0254, 80 * 0.0254
 DEFAULT_MATTRESS = (-(_MAT_W - _SENSE_W) / 2, (_MAT_W + _SENSE_W) / 2, -(_MAT_L - _SENSE_L) / 2,
                     (_MAT_L + _SENSE_L) / 2)
 DEFAULT_SENSING = (0.0, _SENSE_W, 0.0, _SENSE_L)
+HEIGHT_REFERENCES = ("proximal", "bed")
 
 
 def mattress_outline(bed) -> tuple[float, float, float, float]:
@@ -31,6 +32,14 @@ class SamplerConfig:
     code's pi/6; the paper's table says pi/3). shift_max: pelvis offset from the mattress centre,
     U(-shift_max, shift_max) across and along. height_band: allowed |distal - proximal| height (the
     public code's 0.2 m; the paper's text says 10 cm).
+    height_reference: what the distal joint's height is measured from. 'proximal' (default, the
+    public code's rule): |distal - proximal| <= height_band. 'bed': the distal joint's height above
+    the surface the body lies on is within bed_height_band (low, high) m; the default (-0.1, 0.3) is
+    the proximal rule's 0.4 m band centred where a supine body's hips lie (about 0.1 m up), so
+    supine bodies change little, while the upper limbs of a body on its side start near the bed
+    (where the paper means them to be: "distal joints ... close to the surface of the bed") instead
+    of up to 0.6 m above it (see the sampler's module docstring). Hands-behind-head arms keep their
+    own band.
     max_limb_sink: how far a limb capsule may reach below the surface the body lies on (0.05 m: the
     trunk sinks up to ~6.5 cm into the foam and a lightly loaded limb ~1.5-2 cm, REFERENCE section 5,
     so a limb this much lower is pressed into the mattress by the settling trunk instead of lifting
@@ -45,6 +54,8 @@ class SamplerConfig:
     yaw_max: float = math.pi / 6
     shift_max: float = 0.2
     height_band: float = 0.2
+    height_reference: str = "proximal"
+    bed_height_band: tuple[float, float] = (-0.1, 0.3)
     max_limb_sink: float = 0.05
     clearance: float = 0.015
     mattress: tuple[float, float, float, float] = DEFAULT_MATTRESS
@@ -60,6 +71,14 @@ class SamplerConfig:
             v = getattr(self, f)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
+        if self.height_reference not in HEIGHT_REFERENCES:
+            raise BadInput(f"sampler height_reference is {self.height_reference!r}; expected one of "
+                           f"{', '.join(HEIGHT_REFERENCES)}")
+        lo_hi = tuple(float(v) for v in np.ravel(self.bed_height_band))
+        if len(lo_hi) != 2 or not all(math.isfinite(v) for v in lo_hi) or not lo_hi[0] < lo_hi[1]:
+            raise BadInput(f"sampler bed_height_band is {self.bed_height_band!r}; expected (low, high) metres "
+                           f"with low < high")
+        object.__setattr__(self, "bed_height_band", lo_hi)
         for f in ("candidates_per_round", "off_bed_patience", "bin_patience", "max_bin_redraws",
                   "cross_patience", "collision_patience"):
             v = getattr(self, f)

@@ -139,6 +139,11 @@ class Run:
             -cfg.height_band, cfg.height_band)
         length = self.lengths[b, li][:, None]
         got = leg_bin(-reach[..., 1], length) if limb.is_leg else arm_bin(-reach[..., 1], length)
+        if cfg.height_reference == "bed" and not (part.arm_height_band and not limb.is_leg):
+            # the distal joint's height above the surface the body lies on (both pelvis-relative)
+            proximal = np.sum((pos[:, :, ip] - self.rest[b, 0][:, None]) * self.M[b, 2][:, None, :], axis=-1)
+            rise = proximal + rise - self.support[b][:, None]
+            band = cfg.bed_height_band
         cause = np.where((rise < band[0]) | (rise > band[1]), _HEIGHT,
                          np.where(got != self.bins[b, li][:, None], _BIN, 0))
         p, k = np.nonzero(cause == 0)

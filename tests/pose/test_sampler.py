@@ -217,3 +217,30 @@ def test_rejection_counts_are_reported(case):
     assert (rej["off_mattress"] > 0) == on_bed
     assert (rej["not_behind_head"] > 0) == (partition == "hands_behind_head")
     assert (rej["legs_not_crossed"] > 0) == (partition == "supine_crossed_legs")
+
+
+def test_bed_referenced_heights_keep_the_distal_joints_near_the_bed(female):
+    """height_reference='bed': every ankle and wrist starts within bed_height_band of the surface the
+    body lies on (recomputed here: the support capsules with the limbs at rest), and the upper limbs
+    of bodies on their side start lower than with the proximal rule."""
+    from pressurepose.pose import sample_bodies
+    from pressurepose.sim.posture import posture_classes
+
+    config = SamplerConfig(height_reference="bed")
+    lo, hi = config.bed_height_band
+    bed = sample_bodies("general", "f", 60, 21, body=female, config=config)
+    near = sample_bodies("general", "f", 60, 21, body=female)
+    root_only = np.zeros_like(bed.pose)
+    root_only[:, :3] = bed.pose[:, :3]
+    rest_ends, radius = capsules_of(female, bed, root_only)
+    idx = [CAPSULE_NAMES.index(n) for n in SUPPORT]
+    support = (rest_ends[:, idx][..., 2].min(-1) - radius[:, idx]).min(1)
+    distal = bed.joints[:, [J("left_ankle"), J("right_ankle"), J("left_wrist"), J("right_wrist")], 2]
+    above = distal - support[:, None]
+    assert np.all((above >= lo - 1e-9) & (above <= hi + 1e-9))
+    highest = {}
+    for name, batch in (("bed", bed), ("proximal", near)):
+        lateral = np.char.endswith(posture_classes(batch.pose).astype(str), "lateral")
+        z = batch.joints[lateral][:, [J("left_ankle"), J("right_ankle"), J("left_wrist"), J("right_wrist")], 2]
+        highest[name] = np.mean(z.max(1) - batch.joints[lateral, J("pelvis"), 2])
+    assert highest["bed"] < highest["proximal"] - 0.05

@@ -80,7 +80,9 @@ def test_bad_input_names_what_is_expected(toy, kwargs, words):
 
 
 @pytest.mark.parametrize("kwargs", [dict(yaw_max=-1.0), dict(height_band=float("nan")), dict(bin_patience=0),
-                                    dict(mattress=(1.0, 0.0, 0.0, 2.0)), dict(candidates_per_round=True)])
+                                    dict(mattress=(1.0, 0.0, 0.0, 2.0)), dict(candidates_per_round=True),
+                                    dict(height_reference="floor"), dict(bed_height_band=(0.3, -0.1)),
+                                    dict(bed_height_band=(0.0, float("inf")))])
 def test_bad_config(kwargs):
     with pytest.raises(BadInput):
         SamplerConfig(**kwargs)
