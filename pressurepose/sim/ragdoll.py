@@ -20,12 +20,13 @@ the exact gradient of ``k/2 |r - clip(r, lower, upper)|^2``, stiff enough to hol
 within a few degrees, soft enough for the explicit step.
 
 Trunk contact. The four trunk capsules (pelvis, spine, spine1, spine2) lie across the body, and the
-fitted ones reach past the sides of the body's mesh (by 1-9 cm over SMPL shapes: their round caps
-stand in for the hips' and shoulders' bulk). Lying on its side, a body would rest on those caps,
-outside its own surface and with its centre of mass raised by as much, which tips lateral bodies
-over. So each trunk capsule's *contact* geom is shortened to the mesh's half-width around it
-(:func:`trunk_contact_lengths`); its mass and inertia, and the capsule the settle reports, stay the
-fitted capsule's.
+fitted ones reach past the sides of the body's mesh (1-6 cm for the average female and male, up to
+9 cm over shapes: their round caps stand in for the hips' and shoulders' bulk). Lying on its side, a
+body would rest on those caps, outside its own surface, with its centre of mass raised by as much
+above a round support: of 436 lateral starts of ``general`` (two seeds, 200 bodies each per gender)
+73 % rolled over. So each trunk capsule's *contact* geom is shortened to the mesh's half-width
+around it (:func:`trunk_contact_lengths`; then 59 % rolled); its mass and inertia, and the capsule
+the settle reports, stay the fitted capsule's.
 """
 
 from __future__ import annotations
