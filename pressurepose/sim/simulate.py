@@ -49,14 +49,17 @@ def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.nda
 
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
-                 limbs_on_bed: bool = False) -> Simulated | str:
+                 limbs_on_bed: bool = False, sampler=None) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
-    pressing fails. All randomness comes from ``rng``."""
+    pressing fails. All randomness comes from ``rng``. ``sampler``: the pose sampler's
+    :class:`~pressurepose.pose.config.SamplerConfig` (default: its defaults)."""
+    from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press
     from pressurepose.sim.settle import settle
 
-    drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body)
+    drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
+                       config=SamplerConfig() if sampler is None else sampler)
     rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed)
     if not rest.ok:
         return rest.status

@@ -22,3 +22,13 @@ def test_simulate_bad_input(tmp_path, capsys):
     assert "sideways" in capsys.readouterr().err
     assert main(["simulate", "--partition", "general", "--gender", "f", "--count", "0",
                  "--out", str(tmp_path / "x.npz")]) == 2
+
+
+def test_simulate_passes_the_height_reference_to_the_sampler(tmp_path, capsys):
+    poses = {}
+    for ref in ("proximal", "bed"):
+        out = tmp_path / f"{ref}.npz"
+        assert main(["simulate", "--partition", "general", "--gender", "f", "--count", "1", "--seed", "4",
+                     "--height-reference", ref, "--out", str(out)]) == 0
+        poses[ref] = np.load(out)["pose"][0]
+    assert not np.allclose(poses["proximal"], poses["bed"])
