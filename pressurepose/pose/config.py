@@ -46,8 +46,9 @@ class SamplerConfig:
     and rolling it). clearance: start height of the lowest capsule surface above the mattress.
     mattress: (x_min, x_max, y_min, y_max) outline in the bed frame (for limbs_on_bed and the centre).
     candidates_per_round: limb candidates drawn per body in a first round, doubling each further
-    round up to 16 times as many (a speed knob; it changes which samples a seed gives). off_bed_patience, bin_patience, max_bin_redraws, cross_patience,
-    collision_patience: see the module docstring.
+    round up to 16 times as many (a speed knob; it changes which samples a seed gives).
+    off_bed_patience, bin_patience, max_bin_redraws, cross_patience, collision_patience: see the
+    module docstring.
     """
 
     beta_range: float = 3.0

@@ -257,7 +257,8 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
         capsule_rot=caps.rest_transform[:, :3, :3].copy(), radius=np.asarray(caps.radius, float),
         length=np.asarray(caps.length, float), contact_length=trunk_contact_lengths(body, betas, caps),
         mass=np.asarray(masses.mass, float), com=com,
-        inertia=principal, inertia_rot=axes, total_mass=float(masses.total), stiffness=stiffness, damping=DAMPING_PER_STIFFNESS_S * stiffness,
+        inertia=principal, inertia_rot=axes, total_mass=float(masses.total), stiffness=stiffness,
+        damping=DAMPING_PER_STIFFNESS_S * stiffness,
         lower=np.asarray(limits.lower, float)[joints], upper=np.asarray(limits.upper, float)[joints],
         limited=np.asarray(limits.limited, bool)[joints],
         home=home_pose().reshape(NUM_JOINTS, 3)[joints])
