@@ -1,0 +1,119 @@
+"""Writing output files safely: atomically (temporary file renamed into place) and checked up front.
+
+Every file a verb writes goes through :func:`atomic_write` (or a wrapper here), so an interrupted or
+failed write leaves the previous file, never a truncated one; and every verb checks its output paths
+with :func:`check_output_path` before it starts long work.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import secrets
+from pathlib import Path
+from typing import Any, Callable
+
+from pressurepose.errors import BadInput
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def temp_name(path: Path) -> Path:
+    """A hidden temporary name next to ``path`` (``.NAME.tmp-PID-HEX``), unique per call."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
+
+
+def _fsync_dir(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # some platforms cannot open directories
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], Any]) -> None:
+    """Call ``write(tmp)`` to write a temporary file beside ``path``, then rename it onto ``path``.
+
+    ``path`` is replaced only once the whole file is written and flushed; on any error the temporary
+    file is removed and ``path`` is untouched. A full disk raises :class:`BadInput` saying so.
+    """
+    path = Path(path)
+    tmp = temp_name(path)
+    try:
+        write(tmp)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise BadInput(f"no space left on the device writing {path}; finished files are kept, "
+                           f"free some space and rerun the same command") from None
+        raise
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    atomic_write(path, lambda p: Path(p).write_bytes(data))
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    atomic_write(path, lambda p: Path(p).write_text(text))
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
+    write_text_atomic(path, json.dumps(obj, indent=indent) + "\n")
+
+
+def save_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> None:
+    """Save a matplotlib figure atomically; the format comes from the suffix of ``path``."""
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise BadInput(f"figure path {path}: unknown image suffix {path.suffix!r}; "
+                       f"use one of {', '.join(FIGURE_SUFFIXES)}")
+    atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig_kwargs))
+
+
+def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[str, ...] | None = None,
+                      directory: bool = False) -> Path:
+    """Check, before any long work, that ``path`` can be written; return it as a Path.
+
+    ``directory=True``: ``path`` is a folder that will be created if missing (a file in the way is an
+    error). Otherwise ``path`` is a file: it must not be a folder, its suffix must be one of
+    ``suffixes`` when given, and its parent folder must exist and be writable.
+    """
+    path = Path(path)
+    if directory:
+        if path.exists() and not path.is_dir():
+            raise BadInput(f"{what} {path} is a file; expected a folder (or a path that does not exist yet)")
+        probe = path
+        while not probe.exists():
+            probe = probe.parent
+        if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+            raise BadInput(f"{what} {path}: cannot create or write in {probe} (not a writable folder)")
+        return path
+    if path.name in ("", ".", "..") or str(path).endswith(os.sep):
+        raise BadInput(f"{what} {path!s} names a folder; expected a file name")
+    if path.is_dir():
+        raise BadInput(f"{what} {path} is a folder; expected a file name")
+    if suffixes is not None and path.suffix.lower() not in suffixes:
+        raise BadInput(f"{what} {path}: expected a file ending in {' or '.join(suffixes)}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise BadInput(f"{what} {path}: folder {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise BadInput(f"{what} {path}: folder {parent} is not writable")
+    if path.exists() and not os.access(path, os.W_OK) and not os.access(parent, os.W_OK):
+        raise BadInput(f"{what} {path} exists and is not writable")
+    return path
