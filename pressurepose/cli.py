@@ -28,6 +28,17 @@ VERBS: dict[str, tuple[str, str, str]] = {
 }
 
 
+def seed_arg(text: str) -> int:
+    """argparse type of --seed: any whole number >= 0 (what numpy's SeedSequence takes)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 0") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text}: seeds are whole numbers >= 0")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     from pressurepose import __version__
 
@@ -63,6 +74,10 @@ def main(argv: list[str] | None = None) -> int:
     except BadInput as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # files are written atomically: finished ones are kept, none is half-written
+        print(f"\ninterrupted: files already written are complete, none is half-written "
+              f"(generate, train and simulate resume when rerun)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -13,11 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pressurepose.cli import seed_arg
+
 
 def add_demo_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gender", default="f", help="f or m [f]")
     p.add_argument("--partition", default="general_supine", help="posture partition to sample [general_supine]")
-    p.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    p.add_argument("--seed", type=seed_arg, default=0, help="random seed [0]")
     p.add_argument("--model", default=None, help="PressureNet checkpoint [the shipped model]")
     p.add_argument("--out", default="demo_out", help="output folder [demo_out]")
 
@@ -30,25 +32,31 @@ def _stage(name: str, t0: float) -> float:
 
 def run_demo(args) -> int:
     from pressurepose.body import BodyModel, canonical_gender
-    from pressurepose.net.infer import DEFAULT_MODEL, estimate
+    from pressurepose.errors import BadInput
+    from pressurepose.files import check_output_path, save_figure_atomic
+    from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
+    from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import get_bed
     from pressurepose.sim.simulate import simulate_one
 
+    out = check_output_path(args.out, "--out", directory=True)
     gender = canonical_gender(args.gender)[0]
-    out = Path(args.out)
+    partition = get_partition(args.partition).name
+    if args.model:
+        resolve_model(args.model)  # a bad model fails now, not after the simulation
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)
-    print(f"pressurepose demo: one {args.partition} {'female' if gender == 'f' else 'male'} body, seed {args.seed}")
+    print(f"pressurepose demo: one {partition} {'female' if gender == 'f' else 'male'} body, seed {args.seed}")
     t = time.perf_counter()
     body, bed = BodyModel(gender), get_bed()
     t = _stage("load body model and bed", t)
     for _ in range(20):
-        sim = simulate_one(body, bed, args.partition, gender, rng)
+        sim = simulate_one(body, bed, partition, gender, rng)
         if not isinstance(sim, str):
             break
         print(f"  (sample rejected: {sim}; drawing another)")
     else:
-        raise RuntimeError("no sample settled in 20 attempts")
+        raise BadInput(f"no {partition} body settled in 20 attempts; try another --seed")
     t = _stage(f"sample + settle ({sim.settle_steps} steps) + press", t)
     image = sim.image
     true_v, true_j = body.forward(sim.betas, sim.pose, sim.transl)
@@ -66,7 +74,7 @@ def run_demo(args) -> int:
     else:
         print(f"  no trained PressureNet at {model}: rebuild it with `python tools/train_shipped_model.py`")
     path = out / "demo.png"
-    _figure(body, bed, image, true_v[0], true_j[0], est).savefig(path, dpi=110)
+    save_figure_atomic(_figure(body, bed, image, true_v[0], true_j[0], est), path, dpi=110)
     print(f"wrote {path}")
     return 0
 

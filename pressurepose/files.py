@@ -1,4 +1,5 @@
-"""Writing output files safely: atomically (temporary file renamed into place) and checked up front.
+"""Writing output files safely: atomically (temporary file renamed into place) and checked up front;
+and reading a user's ``.npy`` with a message that says what is wrong with it.
 
 Every file a verb writes goes through :func:`atomic_write` (or a wrapper here), so an interrupted or
 failed write leaves the previous file, never a truncated one; and every verb checks its output paths
@@ -38,11 +39,20 @@ def _fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
-def atomic_write(path: str | Path, write: Callable[[Path], Any]) -> None:
-    """Call ``write(tmp)`` to write a temporary file beside ``path``, then rename it onto ``path``.
+def write_error(path: Path, exc: OSError) -> BadInput:
+    """The BadInput for an OSError met while writing ``path`` (full disk, read-only folder...)."""
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return BadInput(f"no space left on the device writing {path}; finished files are kept, "
+                        f"free some space and rerun the same command")
+    return BadInput(f"cannot write {path}: {exc.strerror or exc}")
 
-    ``path`` is replaced only once the whole file is written and flushed; on any error the temporary
-    file is removed and ``path`` is untouched. A full disk raises :class:`BadInput` saying so.
+
+def stage(path: str | Path, write: Callable[[Path], Any]) -> Path:
+    """First phase of an atomic write: ``write(tmp)`` to a hidden temporary file beside ``path``,
+    flushed to disk. Returns the temporary path; :func:`commit` renames it onto ``path``.
+
+    On any error the temporary file is removed and ``path`` is untouched; an OSError (full disk,
+    read-only folder) becomes a :class:`BadInput` naming ``path``.
     """
     path = Path(path)
     tmp = temp_name(path)
@@ -50,17 +60,34 @@ def atomic_write(path: str | Path, write: Callable[[Path], Any]) -> None:
         write(tmp)
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise BadInput(f"no space left on the device writing {path}; finished files are kept, "
-                           f"free some space and rerun the same command") from None
-        raise
+        raise write_error(path, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    return tmp
+
+
+def commit(tmp: Path, path: str | Path) -> None:
+    """Second phase: atomically rename a staged temporary file to its final name."""
+    path = Path(path)
+    try:
+        os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise write_error(path, exc) from None
     _fsync_dir(path.parent)
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], Any]) -> None:
+    """Call ``write(tmp)`` to write a temporary file beside ``path``, then rename it onto ``path``.
+
+    ``path`` is replaced only once the whole file is written and flushed; on any error (Ctrl-C
+    included) the temporary file is removed and ``path`` is untouched. An OSError (full disk,
+    read-only folder) raises :class:`BadInput` saying so.
+    """
+    commit(stage(path, write), path)
 
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> None:
@@ -73,6 +100,17 @@ def write_text_atomic(path: str | Path, text: str) -> None:
 
 def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
     write_text_atomic(path, json.dumps(obj, indent=indent) + "\n")
+
+
+def save_npz_atomic(path: str | Path, **arrays) -> None:
+    """``np.savez_compressed`` atomically, to exactly ``path`` (numpy adds no second ``.npz``)."""
+    import numpy as np
+
+    def write(p: Path) -> None:
+        with open(p, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+    atomic_write(path, write)
 
 
 def save_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> None:
@@ -117,3 +155,29 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
     if path.exists() and not os.access(path, os.W_OK) and not os.access(parent, os.W_OK):
         raise BadInput(f"{what} {path} exists and is not writable")
     return path
+
+
+def read_npy(path: str | Path, what: str) -> np.ndarray:
+    """A numeric array from a ``.npy`` file; BadInput naming ``what`` for a missing, empty, text or
+    pickled file."""
+    import numpy as np
+
+    path = Path(path)
+    if not path.is_file():
+        raise BadInput(f"{what} file {str(path)!r} does not exist")
+    with open(path, "rb") as fh:
+        head = fh.read(6)
+    if head != b"\x93NUMPY":
+        raise BadInput(f"{what} file {str(path)!r} is not a .npy file ({'empty' if not head else 'no .npy header'}; "
+                       f"write it with numpy.save)")
+    try:
+        arr = np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            raise BadInput(f"{what} file {str(path)!r} holds Python objects (pickled); expected numbers") from None
+        raise BadInput(f"{what} file {str(path)!r} could not be read ({exc})") from None
+    except (OSError, EOFError) as exc:
+        raise BadInput(f"{what} file {str(path)!r} is truncated or unreadable ({exc})") from None
+    if arr.dtype.kind not in "fiub":
+        raise BadInput(f"{what} file {str(path)!r} holds {arr.dtype} values; expected numbers")
+    return arr

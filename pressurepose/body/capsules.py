@@ -48,6 +48,7 @@ import numpy as np
 from pressurepose.body import lbs_numpy
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.errors import BadInput
+from pressurepose.files import save_npz_atomic
 
 CAPSULE_NAMES: tuple[str, ...] = (
     "pelvis", "left_thigh", "right_thigh", "spine", "left_calf", "right_calf", "spine1", "left_foot",
@@ -300,7 +301,7 @@ def save_regressors(reg: CapsuleRegressors, path: str | Path) -> None:
     if reg.betas2centers is not None:
         arrays.update(betas2centers=reg.betas2centers, betas2axes=reg.betas2axes)
     arrays.update({k: np.asarray(v) for k, v in reg.meta.items()})
-    np.savez_compressed(path, **arrays)
+    save_npz_atomic(path, **arrays)
 
 
 def fit_regressors(body, num_samples: int = 200, seed: int = 0, beta_range: float = 3.0,

@@ -19,6 +19,7 @@ from torch import nn
 
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.smpl_io import SmplArrays
+from pressurepose.errors import BadInput
 
 
 @dataclass
@@ -78,7 +79,17 @@ class BodyLayer(nn.Module):
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
                 global_orient: torch.Tensor | None = None, transl: torch.Tensor | None = None,
                 ) -> BodyOutput:
-        """Pose the body. Any argument may be None (zeros); batch size from the first given."""
+        """Pose the body. Any argument may be None (zeros); batch size from the first given.
+
+        BadInput for NaN or infinite parameters, as the numpy path; inputs that carry gradients (a
+        network's outputs while training) are not checked, which keeps a training step free of a
+        device sync.
+        """
+        given = [(n, t) for n, t in (("betas", betas), ("body_pose", body_pose), ("global_orient", global_orient),
+                                     ("transl", transl)) if t is not None]
+        for name, t in given:
+            if not t.requires_grad and not bool(torch.isfinite(t).all()):
+                raise BadInput(f"{name} contains NaN or infinite values")
         ref = next((t for t in (betas, body_pose, global_orient, transl) if t is not None), None)
         bsz = 1 if ref is None else ref.shape[0]
         dt, dev = self.v_template.dtype, self.v_template.device
@@ -91,9 +102,9 @@ class BodyLayer(nn.Module):
         body_pose = or_zeros(body_pose, 3 * (n_j - 1))
         global_orient = or_zeros(global_orient, 3)
         if betas.shape[-1] > self.num_betas:
-            raise ValueError(f"betas has {betas.shape[-1]} values; this body model has {self.num_betas}")
+            raise BadInput(f"betas has {betas.shape[-1]} values; this body model has {self.num_betas}")
         if body_pose.shape[-1] != 3 * (n_j - 1):
-            raise ValueError(f"body_pose has {body_pose.shape[-1]} values; expected {3 * (n_j - 1)}")
+            raise BadInput(f"body_pose has {body_pose.shape[-1]} values; expected {3 * (n_j - 1)}")
 
         s = betas.shape[-1]
         v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :s], betas)

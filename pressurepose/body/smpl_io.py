@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.files import save_npz_atomic
 
 REQUIRED_KEYS = ("v_template", "shapedirs", "posedirs", "J_regressor", "weights", "kintree_table", "f")
 
@@ -305,7 +306,7 @@ def save_body_arrays(path: str | Path, arrays: SmplArrays) -> None:
     """Write :class:`SmplArrays` as a compressed SMPL-format ``.npz`` (float32 geometry)."""
     parents = arrays.parents.astype(np.int64)
     kintree = np.stack([parents, np.arange(len(parents))]).astype(np.int64)
-    np.savez_compressed(
+    save_npz_atomic(
         path,
         v_template=arrays.v_template.astype(np.float32),
         shapedirs=arrays.shapedirs.astype(np.float32),

@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from pressurepose.cli import seed_arg
 from pressurepose.errors import BadInput
 
 _PRODUCER_HELP = (
@@ -34,6 +35,8 @@ def _shards(text: str) -> list[int]:
     try:
         for part in text.split(","):
             lo, sep, hi = part.partition("-")
+            if sep and int(hi) < int(lo):
+                raise argparse.ArgumentTypeError(f"{text!r}: the range {part} runs backwards; write {hi}-{lo}")
             out.extend(range(int(lo), int(hi) + 1) if sep else [int(lo)])
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: expected shard numbers like 3 or 0-4,7") from None
@@ -55,12 +58,13 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     g = p.add_argument_group("what to make")
     g.add_argument("--partition", help="one of general, general_supine, hands_behind_head, prone_hands_up, "
-                                       "supine_crossed_legs, supine_straight_limbs")
+                                       "supine_crossed_legs, supine_straight_limbs (aliases: supine, "
+                                       "crossed_legs, straight_limbs)")
     g.add_argument("--gender", help="f or m")
     g.add_argument("--limbs-on-bed", action="store_true",
                    help="start elbows, wrists, knees and ankles over the mattress (the paper's 'plo')")
     g.add_argument("--count", type=int, help="number of samples")
-    g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    g.add_argument("--seed", type=seed_arg, default=0, help="random seed (default 0)")
     g.add_argument("--recipe", help="make a whole mix instead: 'paper' (the paper's 206K samples, appendix "
                                     "A.7) or a recipe JSON file; each entry goes to OUT/<entry name>")
     g.add_argument("--scale", type=float, default=1.0,
@@ -87,10 +91,15 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_generate(args: argparse.Namespace) -> int:
-    from pressurepose.data.pipeline import generate
+    from pressurepose.data.dataset import SPLITS
+    from pressurepose.data.pipeline import GenerationError, generate
+    from pressurepose.data.producers import check_options
     from pressurepose.data.recipes import load_recipe
     from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import MANIFEST
+    from pressurepose.files import check_output_path
 
+    check_output_path(args.out, "--out", directory=True)
     common = dict(mat=args.mat, shard_size=args.shard_size, producer=args.producer,
                   max_attempts=args.max_attempts, options=dict(args.option))
     out = Path(args.out)
@@ -101,6 +110,9 @@ def run_generate(args: argparse.Namespace) -> int:
         if args.shards is not None:
             raise BadInput("--shards works with one config, not with --recipe")
         jobs = [(out / e.name, e.config) for e in load_recipe(args.recipe, scale=args.scale, **common)]
+        if (out / MANIFEST).exists():
+            raise BadInput(f"{out} holds a single dataset; a recipe's datasets would be mixed into it. "
+                           f"Use another --out for the recipe")
     else:
         missing = [f"--{n}" for n in ("partition", "gender", "count") if getattr(args, n) is None]
         if missing:
@@ -108,11 +120,24 @@ def run_generate(args: argparse.Namespace) -> int:
         jobs = [(out, GenerationConfig(partition=args.partition, gender=args.gender,
                                        limbs_on_bed=args.limbs_on_bed, count=args.count, seed=args.seed,
                                        **common))]
+        inner = sorted(p.parent for p in out.glob(f"*/**/{MANIFEST}")) if out.is_dir() else []
+        if inner or (out.is_dir() and any((out / s).is_dir() for s in SPLITS)):
+            raise BadInput(f"{out} holds datasets in its sub-folders (a recipe's output?); a single dataset "
+                           f"there would be counted with them. Use another --out")
+    for _, config in jobs:
+        check_options(config)
     if args.producer == "synthetic":
         print("note: producer 'synthetic' makes TEST/DEMO data (not physics)", file=sys.stderr)
     for i, (path, config) in enumerate(jobs):
-        report = generate(config, path, workers=args.workers, ray_address=args.ray, retries=args.retries,
-                          progress=not args.no_progress, repair=args.repair, only_shards=args.shards)
+        if args.repair:
+            _set_aside_unreadable_manifest(path)
+        try:
+            report = generate(config, path, workers=args.workers, ray_address=args.ray, retries=args.retries,
+                              progress=not args.no_progress, repair=args.repair, only_shards=args.shards)
+        except GenerationError as exc:  # attempts exhausted, or a unit that kept failing: say which, no traceback
+            print(f"error: {path}: {exc}\nfinished shards are kept; rerunning the same command resumes",
+                  file=sys.stderr)
+            return 1
         m = report.manifest
         attempts = m.attempts
         rate = 100.0 * sum(m.rejections.values()) / attempts if attempts else 0.0
@@ -120,6 +145,28 @@ def run_generate(args: argparse.Namespace) -> int:
               f"shard(s), kept {report.skipped}, {report.retries} retried, rejected {rate:.1f}% "
               f"in {report.seconds:.1f} s")
     return 0
+
+
+def _set_aside_unreadable_manifest(out: Path) -> None:
+    """With --repair: a manifest that cannot be read is renamed ``*.corrupt-<time>``, with the shards it
+    vouched for (their checksums are lost), so the dataset is made again."""
+    import os
+    import time
+
+    from pressurepose.data.store import FORMAT, MANIFEST
+
+    if not (out / MANIFEST).is_file():
+        return
+    try:
+        raw = json.loads((out / MANIFEST).read_text())
+        if isinstance(raw, dict) and raw.get("format") == FORMAT:
+            return  # readable: any other problem with it is reported, not repaired
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        pass
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    for p in [out / MANIFEST, *sorted(out.glob("shard-*.h5"))]:
+        os.replace(p, p.with_name(f"{p.name}.corrupt-{stamp}"))
+    print(f"note: {out / MANIFEST} was unreadable; set it and its shards aside (*.corrupt-{stamp})", file=sys.stderr)
 
 
 def add_info_arguments(p: argparse.ArgumentParser) -> None:
@@ -133,12 +180,23 @@ def add_info_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_info(args: argparse.Namespace) -> int:
+    """One summary per split (train, test...) when DIR holds several: they are never counted together."""
+    from pressurepose.data.dataset import find_datasets, split_folders
     from pressurepose.data.info import draw_summary, format_summary, summarize
+    from pressurepose.files import FIGURE_SUFFIXES, check_output_path
 
-    summary = summarize(args.dir, verify=not args.no_verify, examples=args.examples)
-    print(format_summary(summary))
-    png = draw_summary(summary, args.png or Path(args.dir) / "info.png")
-    print(f"picture: {png}")
+    root = Path(args.dir)
+    find_datasets(root)  # a file, a missing folder or no dataset: said before anything is written
+    png = Path(args.png) if args.png else root / "info.png"
+    check_output_path(png, "--png", suffixes=FIGURE_SUFFIXES)
+    if args.examples < 0:
+        raise BadInput(f"--examples is {args.examples}; expected 0 or more")
+    parts = split_folders(root) if len(split_folders(root)) > 1 else {"": root}
+    for split, folder in parts.items():
+        summary = summarize(folder, verify=not args.no_verify, examples=args.examples)
+        print(format_summary(summary) + "\n")
+        path = draw_summary(summary, png.with_name(f"{png.stem}_{split}{png.suffix}") if split else png)
+        print(f"picture: {path}\n")
     return 0
 
 
@@ -166,12 +224,16 @@ def run_convert(args: argparse.Namespace) -> int:
     from pressurepose.data.dataset import DatasetReader
     from pressurepose.data.readers import pressurepose_pickle as pp
 
+    from pressurepose.files import check_output_path
+
     src, out = Path(args.src), Path(args.out)
     if args.to_pressurepose:
+        check_output_path(out, "--out", suffixes=(".p",))
         samples = list(DatasetReader(src))
         pp.export_synthetic(samples, out)
         print(f"wrote {len(samples)} samples to {out}")
         return 0
+    check_output_path(out, "--out", directory=True)
     if src.is_dir() and (src / "participant_info_red.p").exists():
         out.mkdir(parents=True, exist_ok=True)
         part = pp.read_real_participant(src)

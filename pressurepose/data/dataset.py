@@ -39,15 +39,41 @@ class DatasetPart:
         return self.manifest.config
 
 
+SPLITS = ("train", "val", "validation", "test")  # folder names that hold one split of a recipe's output
+
+
 def find_datasets(root: str | Path) -> list[Path]:
-    """Directories under ``root`` (``root`` included) that hold a manifest, sorted."""
+    """Directories under ``root`` (``root`` included) that hold a manifest, sorted. BadInput for a
+    file, and for a dataset with other datasets inside it (they would be counted together)."""
     root = Path(root)
+    if root.is_file():
+        raise BadInput(f"{root} is a file; expected a dataset folder (made by `generate`) or a folder of them")
     if not root.is_dir():
         raise BadInput(f"dataset directory {root} does not exist")
     found = sorted(p.parent for p in root.rglob(MANIFEST))
     if not found:
         raise BadInput(f"{root} holds no pressurepose dataset (no {MANIFEST} in it or below it)")
+    if root in found and len(found) > 1:
+        inner = ", ".join(str(p) for p in found if p != root)
+        raise BadInput(f"{root} is a dataset and also holds other datasets ({inner[:300]}); they would be "
+                       f"counted together. Move them apart")
     return found
+
+
+def split_folders(root: str | Path) -> dict[str, Path]:
+    """Split name -> folder for the splits (train, val, test) of a recipe's output found directly in
+    ``root``; empty when ``root`` holds no such folders."""
+    root = Path(root)
+    return {name: root / name for name in SPLITS if (root / name).is_dir() and any((root / name).rglob(MANIFEST))}
+
+
+def check_one_split(root: str | Path) -> None:
+    """BadInput when ``root`` holds more than one split (e.g. a recipe's train and test folders), which
+    must not be read together."""
+    splits = split_folders(root)
+    if len(splits) > 1:
+        raise BadInput(f"{root} holds the {' and '.join(splits)} splits; they must not be mixed. Pass one of "
+                       f"{', '.join(str(p) for p in splits.values())}")
 
 
 class DatasetReader:

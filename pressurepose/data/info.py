@@ -10,6 +10,7 @@ import numpy as np
 
 from pressurepose.data.dataset import DatasetReader
 from pressurepose.data.store import read_shard_arrays
+from pressurepose.files import save_figure_atomic
 from pressurepose.sim.bed import get_mat
 
 GRAVITY = 9.81
@@ -153,6 +154,6 @@ def draw_summary(s: Summary, path: str | Path) -> Path:
     ax.set_xlabel("samples")
     fig.suptitle(f"{s.root.name}: {s.samples} samples, rejected {100.0 * s.rejection_rate:.1f}%")
     path = Path(path)
-    fig.savefig(path, dpi=100)
+    save_figure_atomic(fig, path, dpi=100)
     plt.close(fig)
     return path

@@ -48,6 +48,28 @@ PRODUCERS: dict[str, str] = {
 }
 
 
+# the options each registered producer reads: name -> (low, high) of a number. A producer named by
+# "module:function" declares none and gets its options unchecked.
+PRODUCER_OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
+    "physics": {},
+    "synthetic": {"reject_rate": (0.0, 1.0), "cost_ms": (0.0, 60_000.0), "sleep_ms": (0.0, 60_000.0)},
+}
+
+
+def check_options(config: GenerationConfig) -> None:
+    """BadInput for an option the config's (registered) producer does not read, or a value out of its range."""
+    known = PRODUCER_OPTIONS.get(config.producer)
+    if known is None:
+        return
+    for key, value in config.options:
+        if key not in known:
+            raise BadInput(f"--option {key}: producer {config.producer!r} has no such option; "
+                           f"it takes {', '.join(known) or 'none'}")
+        low, high = known[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
+            raise BadInput(f"--option {key}={value}: expected a number from {low:g} to {high:g}")
+
+
 def resolve_producer(name: str) -> Callable[[GenerationConfig, np.random.Generator], Union[Sample, Rejected]]:
     """The producer function for a registry name or a ``"module:function"`` path."""
     target = PRODUCERS.get(name, name)

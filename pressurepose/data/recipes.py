@@ -57,6 +57,8 @@ def load_recipe(spec: str | Path, *, scale: float = 1.0, **common: Any) -> list[
         if not isinstance(e, dict) or set(e) - _ENTRY_KEYS or not {"name", "partition", "gender", "count"} <= set(e):
             raise BadInput(f"recipe {path}: entry {i} must have name, partition, gender, count and only "
                            f"{', '.join(sorted(_ENTRY_KEYS))}")
+        if isinstance(e["count"], bool) or not isinstance(e["count"], int) or e["count"] < 1:
+            raise BadInput(f"recipe {path}: entry {i} has count {e['count']!r}; expected a whole number >= 1")
         name = str(e["name"])
         if name in names or Path(name).is_absolute() or ".." in Path(name).parts:
             raise BadInput(f"recipe {path}: entry name {name!r} is repeated or not a relative path")

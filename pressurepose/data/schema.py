@@ -40,6 +40,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
+from pressurepose.pose.partitions import get_partition
 from pressurepose.sim.bed import get_mat
 
 # The paper's partitions (appendix A.7; defined in pressurepose.pose.partitions): general,
@@ -49,6 +50,7 @@ GENDERS: tuple[str, ...] = ("f", "m")
 NUM_BETAS = 10
 NUM_JOINTS = 24
 POSE_SIZE = 72
+MAX_COUNT = 10_000_000  # samples per dataset
 
 IMAGE_FIELDS: tuple[str, ...] = ("pressure", "force", "depth", "contact")
 LABEL_FIELDS: tuple[str, ...] = ("betas", "pose", "transl", "joints", "mass", "height")
@@ -60,10 +62,8 @@ _LABEL_SHAPES: dict[str, tuple[int, ...]] = {
 
 
 def check_partition(name: str) -> str:
-    """Return ``name`` if it is a known partition, else BadInput listing the known ones."""
-    if name not in PARTITIONS:
-        raise BadInput(f"partition {name!r} is not known; expected one of {', '.join(PARTITIONS)}")
-    return name
+    """The partition's name (aliases such as ``supine`` resolved), else BadInput listing the known ones."""
+    return get_partition(name).name
 
 
 def check_gender(gender: str) -> str:
@@ -156,13 +156,16 @@ class GenerationConfig:
     options: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
 
     def __post_init__(self):
-        check_partition(self.partition)
+        object.__setattr__(self, "partition", check_partition(self.partition))
         object.__setattr__(self, "gender", check_gender(self.gender))
         object.__setattr__(self, "options", _freeze_options(self.options))
         for name in ("count", "shard_size", "max_attempts"):
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
                 raise BadInput(f"{name} = {value!r}; expected a positive integer")
+        if self.count > MAX_COUNT:
+            raise BadInput(f"count = {self.count}; at most {MAX_COUNT} samples per dataset (the paper's whole "
+                           f"mix is 206,000): split it into several datasets with different seeds")
         if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
             raise BadInput(f"seed = {self.seed!r}; expected an integer >= 0")
         if not isinstance(self.limbs_on_bed, (bool, np.bool_)):

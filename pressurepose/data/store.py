@@ -19,12 +19,9 @@ Attributes: ``config`` (JSON), ``config_digest``, ``shard``, ``package_version``
 
 from __future__ import annotations
 
-import errno
 import hashlib
 import io
 import json
-import os
-import secrets
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,10 +33,13 @@ import numpy as np
 from pressurepose import __version__
 from pressurepose.data.schema import IMAGE_FIELDS, LABEL_FIELDS, GenerationConfig, Sample
 from pressurepose.errors import BadInput
+from pressurepose.files import commit, stage, write_bytes_atomic
 
 MANIFEST = "manifest.json"
 FORMAT = "pressurepose-dataset"
 FORMAT_VERSION = 1
+REPAIR_HINT = ("rerun its generate command with --repair to set the manifest and its shards aside "
+               "(renamed *.corrupt-<time>) and make the dataset again")
 _F32 = ("pressure", "force", "depth", "betas", "pose", "transl", "joints", "mass", "height")
 
 
@@ -55,49 +55,10 @@ def is_temp_name(name: str) -> bool:
 # --------------------------------------------------------------------------- atomic files
 
 
-def _fsync_dir(directory: Path) -> None:
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:  # some platforms cannot open directories
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
 def stage_bytes(path: Path, data: bytes) -> Path:
-    """Write ``data`` to a hidden temporary file next to ``path`` and flush it to disk.
-
-    Returns the temporary path (rename it with :func:`commit`). On any error the temporary file is
-    removed and ``path`` is untouched; a full disk raises BadInput saying so.
-    """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise BadInput(f"no space left on the device writing {path}; finished files are kept, "
-                           f"free some space and rerun the same command") from None
-        raise
-    return tmp
-
-
-def commit(tmp: Path, path: Path) -> None:
-    """Atomically rename a staged temporary file to its final name."""
-    os.replace(tmp, path)
-    _fsync_dir(Path(path).parent)
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    commit(stage_bytes(path, data), path)
+    """Write ``data`` to a hidden temporary file next to ``path``, flushed to disk; returns the
+    temporary path (rename it with :func:`~pressurepose.files.commit`). See :func:`pressurepose.files.stage`."""
+    return stage(path, lambda p: Path(p).write_bytes(data))
 
 
 def sha256_bytes(data: bytes) -> str:
@@ -237,7 +198,7 @@ class Manifest:
         }
 
     def save(self, directory: Path) -> None:
-        atomic_write_bytes(Path(directory) / MANIFEST,
+        write_bytes_atomic(Path(directory) / MANIFEST,
                            (json.dumps(self.to_dict(), indent=1, sort_keys=False) + "\n").encode())
 
     @classmethod
@@ -252,9 +213,9 @@ class Manifest:
         except FileNotFoundError:
             raise BadInput(f"{directory} is not a pressurepose dataset (no {MANIFEST})") from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise BadInput(f"manifest {path} is corrupt ({exc})") from None
+            raise BadInput(f"manifest {path} is corrupt ({exc}); {REPAIR_HINT}") from None
         if not isinstance(raw, dict) or raw.get("format") != FORMAT:
-            raise BadInput(f"manifest {path} is not a {FORMAT} manifest")
+            raise BadInput(f"manifest {path} is not a {FORMAT} manifest; {REPAIR_HINT}")
         if raw.get("format_version") != FORMAT_VERSION:
             raise BadInput(f"manifest {path} has format version {raw.get('format_version')}; "
                            f"this pressurepose reads version {FORMAT_VERSION}")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 
@@ -23,31 +22,36 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_evaluate(args) -> int:
-    import torch
-
     from pressurepose.errors import BadInput
     from pressurepose.eval.report import evaluate, format_table
+    from pressurepose.files import check_output_path, write_json_atomic, write_text_atomic
     from pressurepose.net.data import load_dataset
     from pressurepose.net.commands import body_specs
     from pressurepose.net.infer import resolve_model
+    from pressurepose.net.train import resolve_device
 
+    if args.out:
+        check_output_path(args.out, "--out", directory=True)
+    if args.batch_size < 1:
+        raise BadInput(f"--batch-size is {args.batch_size}; expected a whole number >= 1")
+    if args.limit is not None and args.limit < 1:
+        raise BadInput(f"--limit is {args.limit}; expected a whole number >= 1 (or leave it out for all samples)")
+    device = resolve_device(args.device)
     net = resolve_model(args.model, body_specs(args))
-    device = "cuda" if args.device == "auto" and torch.cuda.is_available() else (
-        "cpu" if args.device == "auto" else args.device)
     net = net.to(device)
     data = load_dataset(args.data, limit=args.limit)
     if data.grid.shape != net.config.grid.shape:
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
-    result = evaluate(net, data, batch_size=args.batch_size)
+    result = evaluate(net, data, batch_size=args.batch_size, progress=True)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "report.md").write_text(f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
-                                       f"({len(data)} samples)\n\n{table}\n")
-        (out / "report.json").write_text(json.dumps({"model": str(args.model), "data": str(args.data),
-                                                     "summary": result["summary"]}, indent=1))
+        write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
+                                             f"({len(data)} samples)\n\n{table}\n")
+        write_json_atomic(out / "report.json", {"model": str(args.model), "data": str(args.data),
+                                                "summary": result["summary"]})
         print(f"\nreport written to {out}")
     return 0

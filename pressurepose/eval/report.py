@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from pressurepose.errors import BadInput
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
@@ -32,13 +33,19 @@ def _layer_forward(net: PressureNet, gender: int):
 
 
 @torch.no_grad()
-def evaluate(net: PressureNet, data, batch_size: int = 64) -> dict:
+def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = False) -> dict:
     """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data`` (a
     :class:`pressurepose.net.data.LoadedData`), plus the summary (:func:`summarise`).
 
     Vertex errors compare with the true bodies posed by the network's own body layer (same
-    topology); joint errors compare with the dataset's joints.
+    topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
     """
+    from tqdm import tqdm
+
+    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
+    if len(data) == 0:
+        raise BadInput("no samples to evaluate")
     net.eval()
     device = next(net.parameters()).device
     t = data.tensors
@@ -46,7 +53,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64) -> dict:
     base = {g: baseline_body(_layer_forward(net, g), net.config.grid) for g in (0, 1)}
     base_out = {g: _layer_forward(net, g)(*(a[None] for a in base[g])) for g in (0, 1)}
     errs = {f"{row}_{m}": np.zeros(n) for row, _ in ROWS for m in ("mpjpe", "v2v")}
-    for s in range(0, n, batch_size):
+    for s in tqdm(range(0, n, batch_size), desc="evaluate", unit="batch", disable=not progress):
         sl = slice(s, min(s + batch_size, n))
         gender = t["gender"][sl].to(device)
         out1, out2 = net(t["pressure"][sl].to(device), gender)

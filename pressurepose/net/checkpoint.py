@@ -14,13 +14,13 @@ file); a loaded model is checked against the stored identity of its bodies.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput
+from pressurepose.files import atomic_write, write_text_atomic
 from pressurepose.net.model import GenderedBody, NetConfig, PressureNet
 
 FORMAT = "pressurepose.pressurenet/1"
@@ -57,12 +57,6 @@ def bodies_meta(female: BodyModel, male: BodyModel) -> dict:
     return {g: {"spec": body_spec(b), "identity": b.identity} for g, b in (("female", female), ("male", male))}
 
 
-def atomic_write(path: Path, write) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    write(tmp)
-    os.replace(tmp, path)
-
-
 def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, BodyModel], meta: dict | None = None,
                split_modules: bool = False, dtype: torch.dtype | None = None) -> Path:
     """Write a model at ``path`` (NAME.safetensors / NAME.json, or a single NAME.pt).
@@ -94,7 +88,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
     if split_modules:
         record["weight_files"] = sorted(files)
     meta_path = path.with_suffix(".json")
-    atomic_write(meta_path, lambda p: p.write_text(json.dumps(record, indent=1)))
+    write_text_atomic(meta_path, json.dumps(record, indent=1))
     return meta_path if split_modules else path.with_suffix(".safetensors")
 
 
@@ -131,6 +125,18 @@ def _read_safetensors(path: Path, meta_path: Path) -> tuple[dict, dict[str, torc
     return meta, weights
 
 
+def _load_refusal(exc: Exception) -> str:
+    """Why torch.load refused a file, naming the blocked global in full when there is one."""
+    import re
+
+    text = str(exc)
+    blocked = re.search(r"Unsupported global: GLOBAL (\S+)", text) or re.search(r"GLOBAL (\S+)", text)
+    if blocked:
+        return f"it needs {blocked.group(1).rstrip('.,')}, which only a full unpickler would build; refused"
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    return f"{type(exc).__name__}: {lines[0] if lines else ''}"[:300]
+
+
 def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
     """(meta record, state dict) of a saved model given by its .json, .safetensors, .pt or run
     folder; BadInput for anything that is not one."""
@@ -151,7 +157,7 @@ def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
             blob = torch.load(path, map_location="cpu", weights_only=True)
         except Exception as exc:  # the weights-only unpickler refuses anything but tensors and plain data
             raise BadInput(f"model file {str(path)!r} is not a PressureNet checkpoint that can be read "
-                           f"safely ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
+                           f"safely ({_load_refusal(exc)})") from None
         if not isinstance(blob, dict) or not isinstance(blob.get("meta"), str) or not isinstance(blob.get("state_dict"), dict):
             raise BadInput(f"model file {str(path)!r} does not hold {{'meta': json, 'state_dict': tensors}}")
         meta, weights = _read_meta(path, blob["meta"]), blob["state_dict"]

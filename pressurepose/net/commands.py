@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pressurepose.cli import seed_arg
+
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
     from pressurepose.net.train import TrainConfig
@@ -30,7 +32,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loss-sigmas", choices=("paper", "data"), default=d.loss_sigmas,
                    help="sigma_s and sigma_beta: the paper's values or from the training set (default paper)")
     p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05)")
-    p.add_argument("--seed", type=int, default=d.seed, help="seed of the split, shuffling, noise, dropout and init")
+    p.add_argument("--seed", type=seed_arg, default=d.seed, help="seed of the split, shuffling, noise, dropout and init")
     p.add_argument("--device", default=d.device, help="auto (CUDA if available), cpu, cuda, cuda:1 ...")
     p.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
@@ -44,6 +46,12 @@ def run_train(args) -> int:
     from pressurepose.net.data import load_dataset
     from pressurepose.net.train import TrainConfig, train
 
+    from pressurepose.errors import BadInput
+    from pressurepose.files import check_output_path
+
+    check_output_path(args.out, "--out", directory=True)
+    if args.limit is not None and args.limit < 1:
+        raise BadInput(f"--limit is {args.limit}; expected a whole number >= 1 (or leave it out for all samples)")
     data = load_dataset(args.data, limit=args.limit)
     config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
                          lr=args.lr, lr_mod2=args.lr_mod2, lr_schedule=args.lr_schedule, weight_decay=args.weight_decay, noise=not args.no_noise,
@@ -98,14 +106,25 @@ def body_specs(args) -> tuple[str, str] | None:
 
 
 def run_infer(args) -> int:
-    from pressurepose.net.infer import estimate, load_genders, load_pressure
+    import sys
 
+    from pressurepose.errors import BadInput
+    from pressurepose.files import check_output_path
+    from pressurepose.net.infer import check_pressure, estimate, load_genders, load_pressure, pressure_warnings, resolve_model
+
+    check_output_path(args.out, "--out", directory=True)
+    if args.max_figures < 0:
+        raise BadInput(f"--max-figures is {args.max_figures}; expected 0 or more")
     pressure = load_pressure(args.pressure_file, key=args.key)
     if args.gender is None:
         gender = load_genders(args.pressure_file)
     else:
         gender = args.gender.split(",") if "," in args.gender else args.gender
-    est = estimate(pressure, gender, model=args.model, bodies=body_specs(args))
+    net = resolve_model(args.model, body_specs(args))
+    for note in pressure_warnings(check_pressure(pressure, net.config.grid.shape, what=str(args.pressure_file)),
+                                  what=str(args.pressure_file)):
+        print(f"warning: {note}", file=sys.stderr)
+    est = estimate(pressure, gender, model=net, progress=len(pressure) > 64 if pressure.ndim == 3 else False)
     paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
     for i in range(min(len(est), 5)):

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pressurepose.errors import BadInput
 from pressurepose.net.pmr import MatGrid
 
 FIELDS = ("pressure", "betas", "pose", "transl", "joints")
@@ -33,10 +34,13 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
     limit: keep only the first ``limit`` samples. BadInput (from the reader) for a missing,
     incomplete or corrupt dataset.
     """
-    from pressurepose.data.dataset import DatasetReader
+    from pressurepose.data.dataset import DatasetReader, check_one_split
     from pressurepose.data.schema import PARTITIONS
     from pressurepose.sim.bed import get_mat
 
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, (int, np.integer)) or limit < 1):
+        raise BadInput(f"limit is {limit!r}; expected a whole number >= 1 (or None for all samples)")
+    check_one_split(path)
     reader = DatasetReader(path, verify=verify)
     arrays = reader.load_arrays(FIELDS, image_dtype=np.float32)
     mat_name = reader.datasets[0].config.mat

@@ -8,7 +8,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -18,10 +17,12 @@ import numpy as np
 import torch
 
 from pressurepose.errors import BadInput
+from pressurepose.files import atomic_write, read_npy, save_figure_atomic, save_npz_atomic, write_json_atomic
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.pmr import MatGrid
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
+SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.sim.bed.MATS)
 
 
 @dataclass
@@ -66,18 +67,23 @@ class Estimate:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "estimate.json", out / "estimate.npz"]
-        paths[0].write_text(json.dumps({"units": "metres, radians (SMPL axis-angle, root first); bed frame",
-                                        "estimates": self.to_records()}, indent=1))
-        np.savez_compressed(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
-                            vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
-                            gender=np.array(self.gender))
+        write_json_atomic(paths[0], {"units": "metres, radians (SMPL axis-angle, root first); bed frame",
+                                     "estimates": self.to_records()})
+        save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
+                        vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
+                        gender=np.array(self.gender))
         for i in range(len(self)):
             p = out / f"mesh_{i:03d}.{mesh_format}"
-            trimesh.Trimesh(self.vertices[i], self.faces, process=False).export(p)
+            mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
+            atomic_write(p, lambda t, mesh=mesh: mesh.export(str(t), file_type=mesh_format))
             paths.append(p)
         for i in range(min(len(self), max_figures)):
             p = out / f"estimate_{i:03d}.png"
-            figure(self, i).savefig(p, dpi=110)
+            fig = figure(self, i)
+            save_figure_atomic(fig, p, dpi=110)
+            import matplotlib.pyplot as plt
+
+            plt.close(fig)
             paths.append(p)
         return paths
 
@@ -125,7 +131,7 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
     suffix = path.suffix.lower()
     try:
         if suffix == ".npy":
-            arr = np.load(path, allow_pickle=False)
+            arr = read_npy(path, "pressure")
         elif suffix == ".csv":
             arr = np.loadtxt(path, delimiter=",", ndmin=2)
         elif suffix in (".h5", ".hdf5"):
@@ -171,13 +177,37 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != tuple(shape) or arr.shape[0] == 0:
+        hint = ("; an image of another mat can be resampled onto this one, keeping the total force, "
+                "with pressurepose.data.resample.resample_pressure" if arr.ndim in (2, 3) and arr.shape[0] else "")
         raise BadInput(f"{what} has shape {np.shape(pressure)}; this model's mat is {shape[0]} x {shape[1]} "
-                       f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]}))")
+                       f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]})){hint}")
     if not np.all(np.isfinite(arr)):
         raise BadInput(f"{what} contains NaN or infinite values")
     if np.any(arr < 0):
         raise BadInput(f"{what} has negative values (min {arr.min():.3g}); pressures must be >= 0")
     return arr
+
+
+def pressure_warnings(arr: np.ndarray, max_mmhg: float = SENSOR_MAX_MMHG, what: str = "pressure") -> list[str]:
+    """Sentences about checked images (B, R, C) that no estimate can be trusted for: empty mats (all
+    readings 0) and readings above the sensor's range ``max_mmhg``. BadInput when every image is
+    empty or a reading is beyond 10 times the range (wrong units: 1 mmHg = 133.3 Pa)."""
+    empty = np.flatnonzero(arr.reshape(len(arr), -1).max(axis=1) <= 0)
+    peak = float(arr.max())
+    if len(empty) == len(arr):
+        raise BadInput(f"{what}: the mat is empty (every reading is 0); nobody lies on it")
+    if peak > 10 * max_mmhg:
+        raise BadInput(f"{what}: readings up to {peak:.3g} mmHg are far outside the sensor's range 0..{max_mmhg:g} "
+                       f"mmHg; are they in mmHg (1 mmHg = 133.3 Pa)?")
+    notes = []
+    if len(empty):
+        notes.append(f"{what}: image(s) {', '.join(map(str, empty[:10].tolist()))} are empty (every reading 0); "
+                     f"their estimates mean nothing")
+    if peak > max_mmhg:
+        over = np.flatnonzero(arr.reshape(len(arr), -1).max(axis=1) > max_mmhg)
+        notes.append(f"{what}: image(s) {', '.join(map(str, over[:10].tolist()))} read above the sensor's range "
+                     f"(peak {peak:.3g} > {max_mmhg:g} mmHg); the model never saw such readings")
+    return notes
 
 
 def _genders(gender, n: int) -> list[str]:
@@ -221,19 +251,26 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
 
 
 @torch.no_grad()
-def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64):
-    """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch."""
+def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64,
+                progress: bool = False):
+    """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch
+    (progress: a progress bar over the batches)."""
+    from tqdm import tqdm
+
+    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
     device = next(net.parameters()).device
     net.eval()
     g = torch.tensor([GENDER_CODES[x] for x in genders], dtype=torch.long)
     results = []
-    for s in range(0, len(pressure), batch_size):
+    for s in tqdm(range(0, len(pressure), batch_size), desc="infer", unit="batch", disable=not progress):
         p = torch.from_numpy(pressure[s:s + batch_size]).to(device)
         results.append(net(p, g[s:s + batch_size].to(device)))
     return results
 
 
-def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None) -> Estimate:
+def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
+             progress: bool = False) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch).
@@ -244,7 +281,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     net = resolve_model(model, bodies)
     arr = check_pressure(pressure, net.config.grid.shape)
     genders = _genders(gender, len(arr))
-    parts = run_network(net, arr, genders, batch_size)
+    parts = run_network(net, arr, genders, batch_size, progress)
 
     def cat(fn):
         return torch.cat([fn(o1, o2).float().cpu() for o1, o2 in parts]).numpy()

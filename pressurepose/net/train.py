@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import hashlib
+import io
 import json
 import math
 import time
@@ -41,7 +42,8 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput
-from pressurepose.net.checkpoint import atomic_write, bodies_meta, gendered_body, save_model
+from pressurepose.files import atomic_write, write_text_atomic
+from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
@@ -105,6 +107,8 @@ class TrainConfig:
             raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
         if not 0 <= self.val_fraction < 1:
             raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
+        if not 0 <= self.seed < 2 ** 63:  # torch's generators take 64-bit seeds
+            raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -185,7 +189,8 @@ def truth_maps(net: PressureNet, data: dict[str, torch.Tensor], device, chunk: i
 
 
 # ---------------------------------------------------------------------------------------- helpers
-def _device(name: str) -> torch.device:
+def resolve_device(name: str) -> torch.device:
+    """A torch device from 'auto', 'cpu', 'cuda', 'cuda:1'...; BadInput for unknown names or CUDA without CUDA."""
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     try:
@@ -221,10 +226,8 @@ class _Logger:
     def __init__(self, out_dir: Path, history: list[dict]):
         """Starts log.csv afresh with the rows of ``history`` (those of the saved state)."""
         self.path = out_dir / "log.csv"
-        with open(self.path, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=self.FIELDS)
-            w.writeheader()
-            w.writerows({k: row.get(k, "") for k in self.FIELDS} for row in history)
+        self.rows = [{k: row.get(k, "") for k in self.FIELDS} for row in history]
+        self._save()
         self.tb = None
         try:
             from torch.utils.tensorboard import SummaryWriter
@@ -233,9 +236,16 @@ class _Logger:
         except ImportError:  # tensorboard is optional
             pass
 
+    def _save(self) -> None:
+        text = io.StringIO()
+        w = csv.DictWriter(text, fieldnames=self.FIELDS)
+        w.writeheader()
+        w.writerows(self.rows)
+        write_text_atomic(self.path, text.getvalue())
+
     def write(self, row: dict) -> None:
-        with open(self.path, "a", newline="") as f:
-            csv.DictWriter(f, fieldnames=self.FIELDS).writerow({k: row.get(k, "") for k in self.FIELDS})
+        self.rows.append({k: row.get(k, "") for k in self.FIELDS})
+        self._save()
         if self.tb is not None:
             for k in self.FIELDS[2:]:
                 if isinstance(row.get(k), float) and math.isfinite(row[k]):
@@ -316,7 +326,7 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     data = as_training_data(data, grid)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    device = _device(config.device)
+    device = resolve_device(config.device)
     n = data["pressure"].shape[0]
     perm = torch.randperm(n, generator=torch.Generator().manual_seed(config.seed))
     n_val = int(round(config.val_fraction * n))
@@ -331,7 +341,13 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     identity = json.loads(json.dumps(identity))  # tuples -> lists, as stored
 
     state_path = out_dir / "state.json"
-    record = json.loads(state_path.read_text()) if state_path.exists() else None
+    try:
+        record = json.loads(state_path.read_text()) if state_path.exists() else None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise BadInput(f"{state_path} is corrupt ({exc}); nothing was overwritten. Delete {out_dir}'s "
+                       f"state.json and state.safetensors to start the run afresh, or use another --out") from None
+    if record is not None and not isinstance(record, dict):
+        raise BadInput(f"{state_path} is not a training state; use another --out")
     if record is not None and record.get("identity") != identity:
         raise BadInput(f"{out_dir} holds a training run with a different config, body model or data; "
                        f"use another output folder (nothing was overwritten)")

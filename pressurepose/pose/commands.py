@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from pressurepose.cli import seed_arg
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
+
+MAX_COUNT = 100_000  # bodies per file: about 1.4 kB each in memory, and the file is written at the end
 
 
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:
@@ -24,8 +27,8 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
                         "height (proximal, the public code's rule, default) or between 0.1 m below and 0.3 m "
                         "above the surface the body lies on (bed: keeps the upper limbs of a body on its "
                         "side near the bed, so fewer lateral bodies roll over while settling)")
-    p.add_argument("--count", type=int, required=True, help="number of bodies")
-    p.add_argument("--seed", type=int, required=True, help="random seed (whole number >= 0)")
+    p.add_argument("--count", type=int, required=True, help=f"number of bodies (at most {MAX_COUNT})")
+    p.add_argument("--seed", type=seed_arg, required=True, help="random seed (whole number >= 0)")
     p.add_argument("--model", default=None,
                    help="an SMPL-format .npz or SMPL .pkl to use instead of the shipped model of --gender")
     p.add_argument("--out", required=True, help="output .npz")
@@ -35,16 +38,38 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
 def run_sample(args) -> int:
     import time
 
-    from pressurepose.body import BodyModel
-    from pressurepose.pose.config import DEFAULT_SENSING, SamplerConfig
-    from pressurepose.pose.sampler import GENDER_NAMES, check_gender, sample_bodies
+    import numpy as np
+    from tqdm import tqdm
 
+    from pressurepose.body import BodyModel
+    from pressurepose.errors import BadInput
+    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic
+    from pressurepose.pose.config import DEFAULT_SENSING, SamplerConfig
+    from pressurepose.pose.partitions import get_partition
+    from pressurepose.pose.sampler import BLOCK, GENDER_NAMES, check_gender, sample_bodies
+    from pressurepose.pose.samples import SampleBatch
+
+    check_output_path(args.out, "--out", suffixes=(".npz",))
+    if args.plot:
+        check_output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
+    if not 1 <= args.count <= MAX_COUNT:
+        raise BadInput(f"--count is {args.count}; expected 1 to {MAX_COUNT} bodies per file "
+                       f"(for more, run again with another --seed, or use `generate`)")
+    partition = get_partition(args.partition).name
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
     config = SamplerConfig(height_reference=args.height_reference)
     t0 = time.perf_counter()
-    batch = sample_bodies(args.partition, gender, args.count, args.seed, limbs_on_bed=args.limbs_on_bed,
-                          body=body, config=config)
+    parts = []
+    with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK) as bar:
+        for start in range(0, args.count, BLOCK):  # body k uses (seed, k) whatever the blocks
+            parts.append(sample_bodies(partition, gender, min(BLOCK, args.count - start), args.seed,
+                                       limbs_on_bed=args.limbs_on_bed, body=body, config=config, start=start))
+            bar.update(len(parts[-1]))
+    first = parts[0]
+    batch = SampleBatch(*(np.concatenate([getattr(b, k) for b in parts])
+                          for k in ("betas", "pose", "transl", "joints", "bins", "roll", "yaw", "counts")),
+                        first.gender, first.partition, first.limbs_on_bed, first.seed)
     dt = time.perf_counter() - t0
     batch.save(args.out)
     print(f"{len(batch)} {batch.partition} bodies ({gender}{', limbs on bed' if batch.limbs_on_bed else ''}) "
@@ -56,6 +81,6 @@ def run_sample(args) -> int:
         from pressurepose.pose.plot import plot_samples
 
         fig = plot_samples(batch, body, config.mattress, DEFAULT_SENSING)
-        fig.savefig(args.plot, dpi=110)
+        save_figure_atomic(fig, args.plot, dpi=110)
         print(f"wrote {args.plot}")
     return 0

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.files import save_npz_atomic
 
 # rejection causes: limb candidates (see pressurepose.pose.sampler), then whole poses
 LIMB_CAUSES = ("height", "bin", "into_bed", "off_mattress", "not_behind_head", "limb_collision")
@@ -74,11 +75,11 @@ class SampleBatch:
     def save(self, path) -> None:
         """Write an ``.npz`` (no pickles) readable by :func:`load_samples`."""
         arrays = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("seed",)}
-        arrays["seed"] = np.int64(-1 if self.seed is None else self.seed)
+        arrays["seed"] = np.array(str(-1 if self.seed is None else self.seed))  # text: seeds may pass 2**63
         arrays["counters"] = np.array(COUNTERS)
         arrays["rejection_causes"] = np.array(CAUSES)
         arrays["rejection_counts"] = np.array([self.rejections[c] for c in CAUSES])
-        np.savez_compressed(path, **arrays)
+        save_npz_atomic(path, **arrays)
 
 
 def load_samples(path) -> SampleBatch:
@@ -102,7 +103,7 @@ def load_samples(path) -> SampleBatch:
             raise BadInput(f"sample file {str(path)!r}: {k} has shape {d[k].shape}; expected {shape}")
     if d["betas"].ndim != 2 or len(d["betas"]) != n:
         raise BadInput(f"sample file {str(path)!r}: betas has shape {d['betas'].shape}; expected ({n}, S)")
-    seed = int(d["seed"])
+    seed = int(str(d["seed"]))
     return SampleBatch(d["betas"], d["pose"], d["transl"], d["joints"], d["bins"], d["roll"], d["yaw"],
                        d["counts"], str(d["gender"]), str(d["partition"]), bool(d["limbs_on_bed"]),
                        None if seed < 0 else seed)

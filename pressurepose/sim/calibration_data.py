@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.files import save_npz_atomic
 from pressurepose.sim.bed import MatSpec
 
 FORMAT = "pressurepose-calibration"
@@ -74,6 +75,12 @@ class CapsuleMeasurements:
         for name in ("radius_m", "mass_kg"):
             if np.any(getattr(self, name) <= 0):
                 raise BadInput(f"{name} must be positive")
+        width, length = self.mat.cols * self.mat.pitch_col_m, self.mat.rows * self.mat.pitch_row_m
+        off = np.flatnonzero((self.center_xy_m[:, 0] < 0) | (self.center_xy_m[:, 0] > width)
+                             | (self.center_xy_m[:, 1] < 0) | (self.center_xy_m[:, 1] > length))
+        if off.size:
+            raise BadInput(f"objects {off.tolist()[:10]} have centres off the mat (center_xy_m outside "
+                           f"0..{width:.3f} m x 0..{length:.3f} m of the {self.mat.name} mat's sensing area)")
         if np.any(self.length_m < 2 * self.radius_m):
             raise BadInput("length_m must be at least 2 radius_m (a capsule's length includes its caps)")
         if np.any(self.pressure_mmhg < 0):
@@ -86,7 +93,7 @@ class CapsuleMeasurements:
 def save_measurements(path: str | Path, data: CapsuleMeasurements) -> None:
     """Write ``data`` as a calibration ``.npz`` (the format above)."""
     m = data.mat
-    np.savez_compressed(
+    save_npz_atomic(
         Path(path), format=np.array(FORMAT), version=np.array(VERSION), mat_name=np.array(m.name),
         mat_shape=np.array(m.shape), mat_pitch_m=np.array([m.pitch_row_m, m.pitch_col_m]),
         max_mmhg=np.array(m.max_mmhg), radius_m=data.radius_m, length_m=data.length_m, mass_kg=data.mass_kg,

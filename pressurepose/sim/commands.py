@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
+
+from pressurepose.cli import seed_arg
 
 
 def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
@@ -28,7 +29,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
                    help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2 "
                         "[all five for --data; stiffness,spread for --targets]")
     p.add_argument("--popsize", type=int, default=50, help="CMA-ES population size [50]")
-    p.add_argument("--seed", type=int, default=0, help="random seed of CMA-ES [0]")
+    p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
     p.add_argument("--max-evals", type=int, default=5000, help="most loss evaluations [5000]")
     p.add_argument("--out", default="bed_params.json", help="output JSON [bed_params.json]")
     p.add_argument("--plot", default=None, help="also draw measured vs simulated images (PNG)")
@@ -37,8 +38,17 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
 def run_calibrate(args) -> int:
     from pressurepose.sim import calibrate as cal
     from pressurepose.sim.bed import BedSpec, get_bed
+    from pressurepose.errors import BadInput
+    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic, write_json_atomic
     from pressurepose.sim.calibration_data import load_measurements
 
+    check_output_path(args.out, "--out", suffixes=(".json",))
+    if args.plot:
+        check_output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
+    if args.max_evals < 1:
+        raise BadInput(f"--max-evals is {args.max_evals}; expected at least 1 loss evaluation")
+    if args.popsize < 2:
+        raise BadInput(f"--popsize is {args.popsize}; CMA-ES needs at least 2")
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
     t0 = time.perf_counter()
 
@@ -63,11 +73,15 @@ def run_calibrate(args) -> int:
         t = cal.DEFAULT_TARGETS
         source = {"targets": {"max_sink_m": t.max_sink_m, "peak_mmhg": t.peak_mmhg, "mass_kg": t.mass_kg,
                               "sources": list(t.sources)}, "body": repr(body)}
+    if not res.loss < cal.PENALTY:
+        raise BadInput(f"the fit found no bed it could simulate (best loss {res.loss:.3g} is the penalty "
+                       f"{cal.PENALTY:g} for a failed press or a sensor out of range); nothing was written. "
+                       f"Check that the objects lie on the mat and their masses and images are right")
     record = {"bed": res.bed.to_dict(), "loss": res.loss, "fitted": res.fitted, "evaluations": res.evaluations,
               "generations": res.generations, "stop": {k: str(v) for k, v in res.stop.items()},
               "popsize": args.popsize, "seed": args.seed, "source": source,
               "seconds": round(time.perf_counter() - t0, 1)}
-    Path(args.out).write_text(json.dumps(record, indent=2))
+    write_json_atomic(args.out, record, indent=2)
     print(f"loss {res.loss:.5f} after {res.evaluations} evaluations; fitted " +
           ", ".join(f"{k}={v:.6g}" for k, v in res.fitted.items()))
     print(f"wrote {args.out}")
@@ -76,7 +90,7 @@ def run_calibrate(args) -> int:
             fig = _plot_measurements(data, res)
         else:
             fig = _plot_body(verts, faces, res, cal.DEFAULT_TARGETS)
-        fig.savefig(args.plot, dpi=110)
+        save_figure_atomic(fig, args.plot, dpi=110)
         print(f"wrote {args.plot}")
     return 0
 
@@ -138,55 +152,104 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
                         "(proximal, default) or 0.1 m below to 0.3 m above the surface the body lies on "
                         "(bed: fewer bodies on their side roll over while settling; see `sample --help`)")
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
-    p.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    p.add_argument("--seed", type=seed_arg, default=0, help="random seed [0]")
     p.add_argument("--mat", default="boditrak_bt3510", help="mat preset [boditrak_bt3510]")
     p.add_argument("--out", required=True, help="output .npz: pressure, force, depth, contact, betas, pose, "
                                                 "transl, joints, mass, height, and rejection counts")
     p.add_argument("--plot", default=None, help="PNG: each pressure image beside the body at rest, seen from the side")
 
 
-def run_simulate(args) -> int:
-    """Settle and press ``count`` bodies (attempt a of body i uses seed (seed, i, a))."""
+SIM_FIELDS = ("pressure", "force", "depth", "contact", "betas", "pose", "transl", "joints", "mass", "height")
+MAX_SIM_COUNT = 10_000  # bodies per file (the file is rewritten after each body); use `generate` for more
+
+
+def _record(sim) -> dict:
+    """The arrays of one settled body (see SIM_FIELDS)."""
+    m = sim.image
+    return {"pressure": m.pressure, "force": m.force, "depth": m.depth, "contact": m.contact, "betas": sim.betas,
+            "pose": sim.pose, "transl": sim.transl, "joints": sim.joints, "mass": np.float64(sim.mass),
+            "height": np.float64(sim.height)}
+
+
+def _save_simulated(path, done: list[dict], rejected, **extra) -> None:
+    from pressurepose.files import save_npz_atomic
+
+    save_npz_atomic(path, **{k: np.stack([r[k] for r in done]) for k in SIM_FIELDS},
+                    rejection_causes=np.array(sorted(rejected), dtype=str),
+                    rejection_counts=np.array([rejected[k] for k in sorted(rejected)], dtype=np.int64), **extra)
+
+
+def _resume(partial, run_key: str, count: int):
+    """Bodies and rejections already in ``partial`` from an interrupted run of the same command."""
     from collections import Counter
+
+    from pressurepose.errors import BadInput
+
+    if not partial.exists():
+        return [], Counter()
+    try:
+        with np.load(partial, allow_pickle=False) as z:
+            if str(z["run_key"]) != run_key:
+                raise BadInput(f"{partial} holds bodies of another simulate command; remove it or use another --out")
+            n = min(len(z["pressure"]), count)
+            done = [{k: z[k][i] for k in SIM_FIELDS} for i in range(n)]
+            rejected = Counter(dict(zip(map(str, z["rejection_causes"]), map(int, z["rejection_counts"]))))
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        raise BadInput(f"{partial} (bodies of an interrupted run) is unreadable ({exc}); remove it") from None
+    return done, rejected
+
+
+def run_simulate(args) -> int:
+    """Settle and press ``count`` bodies (attempt a of body i uses seed (seed, i, a)). Finished bodies
+    go to OUT's ``.partial.npz`` as they come; rerunning the same command resumes from it."""
+    import json
 
     from tqdm import tqdm
 
     from pressurepose.body import BodyModel, canonical_gender
     from pressurepose.errors import BadInput
+    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic
     from pressurepose.pose.config import SamplerConfig
+    from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import get_bed
     from pressurepose.sim.simulate import simulate_one
 
-    if args.count < 1:
-        raise BadInput(f"--count is {args.count}; expected at least 1")
+    out = check_output_path(args.out, "--out", suffixes=(".npz",))
+    if args.plot:
+        check_output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
+    if not 1 <= args.count <= MAX_SIM_COUNT:
+        raise BadInput(f"--count is {args.count}; expected 1 to {MAX_SIM_COUNT} bodies per file "
+                       f"(use `generate` for datasets)")
+    partition = get_partition(args.partition).name
     gender = canonical_gender(args.gender)[0]
     body, bed = BodyModel(gender), get_bed(args.mat)
     sampler = SamplerConfig(height_reference=args.height_reference)
-    done, rejected = [], Counter()
-    for i in tqdm(range(args.count), desc="simulate", unit="body"):
+    # everything but the outputs and the count decides the bodies: a partial file of another command is refused
+    run_key = json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_")
+                             and k not in ("out", "plot", "count")}, "partition": partition, "gender": gender},
+                         sort_keys=True, default=str)
+    partial = out.with_name(f"{out.stem}.partial.npz")
+    done, rejected = _resume(partial, run_key, args.count)
+    if done:
+        print(f"resuming: {len(done)} bodies already finished in {partial}")
+    for i in tqdm(range(len(done), args.count), desc="simulate", unit="body", initial=len(done), total=args.count):
         for attempt in range(100):
-            sim = simulate_one(body, bed, args.partition, gender,
+            sim = simulate_one(body, bed, partition, gender,
                                np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler)
             if not isinstance(sim, str):
-                done.append(sim)
+                done.append(_record(sim))
                 break
             rejected[sim] += 1
         else:
-            raise RuntimeError(f"body {i}: no attempt settled in 100 tries ({dict(rejected)})")
-    img = [s.image for s in done]
-    np.savez_compressed(
-        args.out, pressure=np.stack([m.pressure for m in img]), force=np.stack([m.force for m in img]),
-        depth=np.stack([m.depth for m in img]), contact=np.stack([m.contact for m in img]),
-        betas=np.stack([s.betas for s in done]), pose=np.stack([s.pose for s in done]),
-        transl=np.stack([s.transl for s in done]), joints=np.stack([s.joints for s in done]),
-        mass=np.array([s.mass for s in done]), height=np.array([s.height for s in done]),
-        gender=np.array(gender), partition=np.array(args.partition),
-        rejection_causes=np.array(sorted(rejected), dtype=str),
-        rejection_counts=np.array([rejected[k] for k in sorted(rejected)], dtype=np.int64))
+            raise BadInput(f"body {i}: no attempt settled in 100 tries ({dict(rejected)}); the {len(done)} "
+                           f"finished bodies are kept in {partial}. Try another --seed or --partition")
+        _save_simulated(partial, done, rejected, run_key=np.array(run_key))
+    _save_simulated(out, done, rejected, gender=np.array(gender), partition=np.array(partition))
+    partial.unlink(missing_ok=True)
     print(f"{len(done)} bodies settled and pressed; rejected {sum(rejected.values())} "
-          f"({', '.join(f'{k} {v}' for k, v in sorted(rejected.items())) or 'none'}); wrote {args.out}")
+          f"({', '.join(f'{k} {v}' for k, v in sorted(rejected.items())) or 'none'}); wrote {out}")
     if args.plot:
-        _plot_simulated(body, bed, done).savefig(args.plot, dpi=100)
+        save_figure_atomic(_plot_simulated(body, bed, done), args.plot, dpi=100)
         print(f"wrote {args.plot}")
     return 0
 
@@ -204,10 +267,10 @@ def _plot_simulated(body, bed, done):
     n = len(done)
     fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False)
     for (a_img, a_side), s in zip(axes, done):
-        im = a_img.imshow(s.image.pressure, extent=extent, cmap="viridis", vmin=0)
-        a_img.set_title(f"{s.mass:.0f} kg, peak {s.image.pressure.max():.0f} mmHg", fontsize=9)
+        im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0)
+        a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
         fig.colorbar(im, ax=a_img, fraction=0.06, label="mmHg")
-        verts, _ = body.forward(s.betas, s.pose, s.transl)
+        verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
         draw_mesh(a_side, verts[0], body.faces, "bed_side")
         a_side.axhline(0.0, color="0.4", lw=1)
         a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)

@@ -11,6 +11,7 @@ from pressurepose.data import store
 from pressurepose.data.pipeline import generate
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.data.store import MANIFEST, Manifest, sha256_file, shard_name
+from pressurepose.files import write_bytes_atomic
 from pressurepose.errors import BadInput
 from tests.data.helpers import small_config
 
@@ -91,7 +92,7 @@ def test_full_disk_leaves_no_temp_file_and_keeps_the_target(tmp_path, monkeypatc
 
     monkeypatch.setattr(os, "fsync", no_space)
     with pytest.raises(BadInput, match="no space left"):
-        store.atomic_write_bytes(target, b"new content")
+        write_bytes_atomic(target, b"new content")
     assert target.read_bytes() == b"old"
     assert [p.name for p in tmp_path.iterdir()] == ["x.bin"]
 

@@ -45,6 +45,7 @@ from pressurepose.data.resample import MMHG_PA
 from pressurepose.data.schema import PARTITIONS, GenerationConfig, Sample, check_gender, check_partition
 from pressurepose.data.store import Manifest, write_dataset
 from pressurepose.errors import BadInput
+from pressurepose.files import write_bytes_atomic
 from pressurepose.sim.bed import get_mat
 
 PITCH = 0.0286          # their taxel spacing (INTER_SENSOR_DISTANCE), m
@@ -287,8 +288,7 @@ def samples_to_synthetic(samples: Sequence[Sample]) -> dict[str, list]:
 def export_synthetic(samples: Sequence[Sample], path: str | Path) -> Path:
     """Write samples as a release-format pickle (protocol 2, readable by their Python 2 code)."""
     path = Path(path)
-    with open(path, "wb") as fh:
-        pickle.dump(samples_to_synthetic(samples), fh, protocol=2)
+    write_bytes_atomic(path, pickle.dumps(samples_to_synthetic(samples), protocol=2))
     return path
 
 
@@ -357,8 +357,6 @@ def save_real_hdf5(participant: RealParticipant, path: str | Path) -> Path:
     (as released, concatenated with per-image offsets) to one HDF5 file, atomically."""
     import h5py
 
-    from pressurepose.data.store import atomic_write_bytes
-
     buf = io.BytesIO()
     with h5py.File(buf, "w") as f:
         f.attrs.update(name=participant.name, gender=participant.gender, mass=participant.mass,
@@ -371,5 +369,5 @@ def save_real_hdf5(participant: RealParticipant, path: str | Path) -> Path:
                 g.create_dataset("pc_points", data=np.concatenate(rec.point_clouds).astype(np.float32),
                                  compression="gzip", shuffle=True)
                 g.create_dataset("pc_offsets", data=offsets.astype(np.int64))
-    atomic_write_bytes(Path(path), buf.getvalue())
+    write_bytes_atomic(Path(path), buf.getvalue())
     return Path(path)
