@@ -110,7 +110,8 @@ def run_infer(args) -> int:
 
     from pressurepose.errors import BadInput
     from pressurepose.files import check_output_path
-    from pressurepose.net.infer import check_pressure, estimate, load_genders, load_pressure, pressure_warnings, resolve_model
+    from pressurepose.net.infer import (check_pressure, estimate, load_genders, load_pressure, pressure_warnings,
+                                        resolve_model)
 
     check_output_path(args.out, "--out", directory=True)
     if args.max_figures < 0:
