@@ -78,6 +78,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\ninterrupted: files already written are complete, none is half-written "
               f"(generate, train and simulate resume when rerun)", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a reader that stopped (`| head`): quiet, as other tools
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -78,17 +78,15 @@ class BodyLayer(nn.Module):
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
                 global_orient: torch.Tensor | None = None, transl: torch.Tensor | None = None,
-                ) -> BodyOutput:
+                check: bool = True) -> BodyOutput:
         """Pose the body. Any argument may be None (zeros); batch size from the first given.
 
-        BadInput for NaN or infinite parameters, as the numpy path; inputs that carry gradients (a
-        network's outputs while training) are not checked, which keeps a training step free of a
-        device sync.
+        check: BadInput for NaN or infinite parameters, as the numpy path (PressureNet passes False
+        for its own outputs, which keeps a training step free of a device sync).
         """
-        given = [(n, t) for n, t in (("betas", betas), ("body_pose", body_pose), ("global_orient", global_orient),
-                                     ("transl", transl)) if t is not None]
-        for name, t in given:
-            if not t.requires_grad and not bool(torch.isfinite(t).all()):
+        for name, t in (("betas", betas), ("body_pose", body_pose), ("global_orient", global_orient),
+                        ("transl", transl)):
+            if check and t is not None and not bool(torch.isfinite(t).all()):
                 raise BadInput(f"{name} contains NaN or infinite values")
         ref = next((t for t in (betas, body_pose, global_orient, transl) if t is not None), None)
         bsz = 1 if ref is None else ref.shape[0]

@@ -98,6 +98,7 @@ class GenderedBody(nn.Module):
         with full_precision(params.betas.device):
             args = dict(betas=params.betas.float(), body_pose=params.body_pose.float(),
                         global_orient=params.global_orient.float(), transl=params.transl.float())
+            args["check"] = False  # the network's own outputs: NaN there is a training problem, not bad input
             if len(self.layers) == 1:
                 out = self.layers[0](**args)
                 return out.vertices, out.joints
@@ -108,7 +109,7 @@ class GenderedBody(nn.Module):
                 idx = (gender == g).nonzero().squeeze(1)
                 if idx.numel() == 0:
                     continue
-                out = layer(**{k: v.index_select(0, idx) for k, v in args.items()})
+                out = layer(**{k: v.index_select(0, idx) if torch.is_tensor(v) else v for k, v in args.items()})
                 if verts is None:
                     b = gender.shape[0]
                     verts = out.vertices.new_zeros((b,) + out.vertices.shape[1:])

@@ -47,8 +47,6 @@ def run_calibrate(args) -> int:
         check_output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
     if args.max_evals < 1:
         raise BadInput(f"--max-evals is {args.max_evals}; expected at least 1 loss evaluation")
-    if args.popsize < 2:
-        raise BadInput(f"--popsize is {args.popsize}; CMA-ES needs at least 2")
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
     t0 = time.perf_counter()
 
