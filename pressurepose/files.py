@@ -158,26 +158,34 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
 
 
 def read_npy(path: str | Path, what: str) -> np.ndarray:
-    """A numeric array from a ``.npy`` file; BadInput naming ``what`` for a missing, empty, text or
-    pickled file."""
+    """A numeric array from a ``.npy`` file; BadInput naming ``what`` for a missing, empty, text,
+    truncated or pickled file."""
     import numpy as np
 
     path = Path(path)
     if not path.is_file():
         raise BadInput(f"{what} file {str(path)!r} does not exist")
-    with open(path, "rb") as fh:
-        head = fh.read(6)
-    if head != b"\x93NUMPY":
-        raise BadInput(f"{what} file {str(path)!r} is not a .npy file ({'empty' if not head else 'no .npy header'}; "
-                       f"write it with numpy.save)")
     try:
         arr = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        if "allow_pickle" in str(exc):
-            raise BadInput(f"{what} file {str(path)!r} holds Python objects (pickled); expected numbers") from None
-        raise BadInput(f"{what} file {str(path)!r} could not be read ({exc})") from None
-    except (OSError, EOFError) as exc:
-        raise BadInput(f"{what} file {str(path)!r} is truncated or unreadable ({exc})") from None
+    except (ValueError, OSError, EOFError) as exc:
+        raise BadInput(f"{what} file {str(path)!r} is not a readable .npy file ({numpy_load_problem(path, exc)})") from None
     if arr.dtype.kind not in "fiub":
         raise BadInput(f"{what} file {str(path)!r} holds {arr.dtype} values; expected numbers")
     return arr
+
+
+def numpy_load_problem(path: str | Path, exc: Exception) -> str:
+    """What is wrong with a file ``np.load(allow_pickle=False)`` refused: numpy calls anything without
+    a .npy / .npz header "pickled data", which misleads for an empty or a text file."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(6)
+    except OSError as err:
+        return str(err)
+    if not head:
+        return "the file is empty"
+    if head != b"\x93NUMPY" and not head.startswith(b"PK"):
+        if "allow_pickle" in str(exc) and head[:1] in (b"\x80", b"("):
+            return "it holds pickled Python objects, which are not read"
+        return "it has no .npy / .npz header (write it with numpy.save / numpy.savez)"
+    return str(exc)

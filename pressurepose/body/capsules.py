@@ -48,7 +48,7 @@ import numpy as np
 from pressurepose.body import lbs_numpy
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.errors import BadInput
-from pressurepose.files import save_npz_atomic
+from pressurepose.files import numpy_load_problem, save_npz_atomic
 
 CAPSULE_NAMES: tuple[str, ...] = (
     "pelvis", "left_thigh", "right_thigh", "spine", "left_calf", "right_calf", "spine1", "left_foot",
@@ -268,7 +268,7 @@ def load_regressors(path: str | Path) -> CapsuleRegressors:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError) as e:
-        raise BadInput(f"capsule regressor file {str(path)!r} cannot be read as .npz ({e})") from None
+        raise BadInput(f"capsule regressor file {str(path)!r} cannot be read as .npz ({numpy_load_problem(path, e)})") from None
     for key in ("betas2lens", "betas2rads"):
         if key not in data:
             raise BadInput(f"capsule regressor file {str(path)!r} has no {key!r} array")

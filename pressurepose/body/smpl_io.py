@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.files import save_npz_atomic
+from pressurepose.files import numpy_load_problem, save_npz_atomic
 
 REQUIRED_KEYS = ("v_template", "shapedirs", "posedirs", "J_regressor", "weights", "kintree_table", "f")
 
@@ -291,7 +291,7 @@ def load_body_arrays(path: str | Path) -> SmplArrays:
             with np.load(path, allow_pickle=False) as z:
                 raw = {k: z[k] for k in z.files}
         except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
-            raise BadInput(f"body model {str(path)!r}: not a readable .npz ({exc})") from None
+            raise BadInput(f"body model {str(path)!r}: not a readable .npz ({numpy_load_problem(path, exc)})") from None
     elif suffix in (".pkl", ".pickle"):
         with path.open("rb") as fh:
             raw = safe_pickle_load(fh, what=f"body model {str(path)!r}")

@@ -22,6 +22,7 @@ import numpy as np
 
 from pressurepose.data.resample import resample_pressure
 from pressurepose.errors import BadInput
+from pressurepose.files import numpy_load_problem
 from pressurepose.sim.bed import get_mat
 
 COVERS = ("uncover", "cover1", "cover2")
@@ -54,7 +55,7 @@ def _load_npy(path: Path) -> np.ndarray:
     except FileNotFoundError:
         raise BadInput(f"SLP file {path} does not exist") from None
     except (ValueError, OSError, EOFError) as exc:
-        raise BadInput(f"SLP file {path} is not a readable array ({exc})") from None
+        raise BadInput(f"SLP file {path} is not a readable array ({numpy_load_problem(path, exc)})") from None
 
 
 def list_subjects(root: str | Path) -> list[int]:
