@@ -47,3 +47,37 @@ def test_figure_suffix_checked(tmp_path):
     save_figure_atomic(fig, tmp_path / "x.png")
     assert (tmp_path / "x.png").read_bytes()[:4] == b"\x89PNG"
     plt.close(fig)
+
+
+def test_write_errors_become_bad_input_naming_the_file(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from pressurepose.files import write_text_atomic
+
+    target = tmp_path / "a.txt"
+    target.write_text("old")
+
+    def refused(src, dst):
+        raise PermissionError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(os, "replace", refused)
+    with pytest.raises(BadInput, match="cannot write .*a.txt: Permission denied"):
+        write_text_atomic(target, "new")
+    assert target.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_two_phase_write_and_npz_to_the_exact_name(tmp_path):
+    import numpy as np
+
+    from pressurepose.files import commit, save_npz_atomic, stage
+
+    tmp = stage(tmp_path / "b.bin", lambda p: p.write_bytes(b"data"))
+    assert not (tmp_path / "b.bin").exists() and tmp.read_bytes() == b"data"
+    commit(tmp, tmp_path / "b.bin")
+    assert (tmp_path / "b.bin").read_bytes() == b"data" and not tmp.exists()
+    save_npz_atomic(tmp_path / "arrays.dat", x=np.arange(3))  # numpy would have written arrays.dat.npz
+    with np.load(tmp_path / "arrays.dat") as z:
+        assert z["x"].tolist() == [0, 1, 2]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["arrays.dat", "b.bin"]
