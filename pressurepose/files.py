@@ -168,7 +168,8 @@ def read_npy(path: str | Path, what: str) -> np.ndarray:
     try:
         arr = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
-        raise BadInput(f"{what} file {str(path)!r} is not a readable .npy file ({numpy_load_problem(path, exc)})") from None
+        raise BadInput(f"{what} file {str(path)!r} is not a readable .npy file "
+                       f"({numpy_load_problem(path, exc)})") from None
     if arr.dtype.kind not in "fiub":
         raise BadInput(f"{what} file {str(path)!r} holds {arr.dtype} values; expected numbers")
     return arr

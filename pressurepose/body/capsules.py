@@ -268,7 +268,8 @@ def load_regressors(path: str | Path) -> CapsuleRegressors:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError) as e:
-        raise BadInput(f"capsule regressor file {str(path)!r} cannot be read as .npz ({numpy_load_problem(path, e)})") from None
+        raise BadInput(f"capsule regressor file {str(path)!r} cannot be read as .npz "
+                       f"({numpy_load_problem(path, e)})") from None
     for key in ("betas2lens", "betas2rads"):
         if key not in data:
             raise BadInput(f"capsule regressor file {str(path)!r} has no {key!r} array")

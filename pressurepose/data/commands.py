@@ -166,7 +166,8 @@ def _set_aside_unreadable_manifest(out: Path) -> None:
     stamp = time.strftime("%Y%m%d-%H%M%S")
     for p in [out / MANIFEST, *sorted(out.glob("shard-*.h5"))]:
         os.replace(p, p.with_name(f"{p.name}.corrupt-{stamp}"))
-    print(f"note: {out / MANIFEST} was unreadable; set it and its shards aside (*.corrupt-{stamp})", file=sys.stderr)
+    print(f"note: {out / MANIFEST} was unreadable; set it and its shards aside (*.corrupt-{stamp})",
+          file=sys.stderr)
 
 
 def add_info_arguments(p: argparse.ArgumentParser) -> None:
@@ -191,7 +192,8 @@ def run_info(args: argparse.Namespace) -> int:
     check_output_path(png, "--png", suffixes=FIGURE_SUFFIXES)
     if args.examples < 0:
         raise BadInput(f"--examples is {args.examples}; expected 0 or more")
-    parts = split_folders(root) if len(split_folders(root)) > 1 else {"": root}
+    splits = split_folders(root)
+    parts = splits if len(splits) > 1 else {"": root}
     for split, folder in parts.items():
         summary = summarize(folder, verify=not args.no_verify, examples=args.examples)
         print(format_summary(summary) + "\n")
@@ -223,7 +225,6 @@ def run_convert(args: argparse.Namespace) -> int:
     from pressurepose.body import BodyModel
     from pressurepose.data.dataset import DatasetReader
     from pressurepose.data.readers import pressurepose_pickle as pp
-
     from pressurepose.files import check_output_path
 
     src, out = Path(args.src), Path(args.out)

@@ -125,7 +125,7 @@ def run_infer(args) -> int:
     for note in pressure_warnings(check_pressure(pressure, net.config.grid.shape, what=str(args.pressure_file)),
                                   what=str(args.pressure_file)):
         print(f"warning: {note}", file=sys.stderr)
-    est = estimate(pressure, gender, model=net, progress=len(pressure) > 64 if pressure.ndim == 3 else False)
+    est = estimate(pressure, gender, model=net, progress=pressure.ndim == 3 and len(pressure) > 64)
     paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
     for i in range(min(len(est), 5)):

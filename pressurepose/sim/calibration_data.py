@@ -109,7 +109,8 @@ def load_measurements(path: str | Path) -> CapsuleMeasurements:
         with np.load(p, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise BadInput(f"calibration data {str(p)!r} is not a readable .npz file ({numpy_load_problem(p, exc)})") from None
+        raise BadInput(f"calibration data {str(p)!r} is not a readable .npz file "
+                       f"({numpy_load_problem(p, exc)})") from None
     need = ["format", "version", "mat_name", "mat_shape", "mat_pitch_m", "max_mmhg", "radius_m", "length_m",
             "mass_kg", "center_xy_m", "yaw_rad", "pressure_mmhg", "sink_m"]
     missing = [k for k in need if k not in arrays]
