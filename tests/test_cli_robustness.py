@@ -43,6 +43,8 @@ def world(tmp_path_factory):
     (root / "text.npy").write_text("1 2 3\n")
     (root / "empty.npy").write_bytes(b"")
     (root / "afile").write_text("not a folder\n")
+    write_toy_dataset(root / "nested", n=4)
+    write_toy_dataset(root / "nested" / "inner", n=4, seed=2)
     return SimpleNamespace(root=root, data=root / "data", recipe=root / "recipe", model=model)
 
 
@@ -109,6 +111,7 @@ REFUSED = [
                                        "--epochs-mod1", 0, "--epochs-mod2", 0, "--female", "toy", "--male", "toy"],
      "corrupt"),
     ("info-on-a-file", lambda w: ["info", w.root / "afile"], "is a file"),
+    ("info-on-a-dataset-holding-datasets", lambda w: ["info", w.root / "nested"], "counted together"),
     ("train-on-a-file", lambda w: ["train", "--data", w.root / "afile", "--out", w.root / "run_file",
                                    "--female", "toy", "--male", "toy"], "is a file"),
     # bad output paths, found before any work
@@ -219,6 +222,16 @@ def test_info_never_counts_train_and_test_together(world, capsys):
     assert code == 0
     assert out.count("4 samples") == 2 and "8 samples" not in out
     assert (world.root / "info_train.png").exists() and (world.root / "info_test.png").exists()
+
+
+def test_infer_warns_about_empty_images_in_a_batch(world, capsys):
+    batch = np.load(world.root / "good.npy")
+    batch[1] = 0
+    np.save(world.root / "half_empty.npy", batch)
+    code = main(["infer", str(world.root / "half_empty.npy"), "--gender", "f", "--model", str(world.model),
+                 "--out", str(world.root / "est_half"), "--max-figures", "0"])
+    err = capsys.readouterr().err
+    assert code == 0 and "warning:" in err and "image(s) 1 are empty" in err
 
 
 # ------------------------------------------------------------------------------------- data loss

@@ -31,8 +31,8 @@ class LoadedData:
 def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True) -> LoadedData:
     """Read a generated dataset (one directory or a folder of them) into memory (float32 images).
 
-    limit: keep only the first ``limit`` samples. BadInput (from the reader) for a missing,
-    incomplete or corrupt dataset.
+    limit: keep only the first ``limit`` samples (>= 1). BadInput (from the reader) for a missing,
+    incomplete or corrupt dataset, and for a folder holding more than one split (train and test).
     """
     from pressurepose.data.dataset import DatasetReader, check_one_split
     from pressurepose.data.schema import PARTITIONS
