@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 
 def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Evaluate a trained PressureNet on a generated dataset: MPJPE (24 joints) and "
                      "vertex-to-vertex error in cm, overall, by partition and by gender, beside the "
-                     "paper's mean-pose baseline (mean shape, supine, centred, straight limbs).")
+                     "paper's mean-pose baseline (mean shape, supine, centred, straight limbs); and the "
+                     "posture accuracy and stature error that evaluate-real reports on real images.")
     p.add_argument("--model", required=True, help="trained model (.json with its .safetensors files, .pt, or a run folder)")
     p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
@@ -29,8 +28,10 @@ def run_evaluate(args) -> int:
     from pressurepose.eval.report import evaluate, format_table
     from pressurepose.net.data import load_dataset
     from pressurepose.net.commands import body_specs
+    from pressurepose.files import check_output_path, write_json_atomic, write_text_atomic
     from pressurepose.net.infer import resolve_model
 
+    out = check_output_path(args.out, "--out", directory=True) if args.out else None
     net = resolve_model(args.model, body_specs(args))
     device = "cuda" if args.device == "auto" and torch.cuda.is_available() else (
         "cpu" if args.device == "auto" else args.device)
@@ -42,13 +43,12 @@ def run_evaluate(args) -> int:
     result = evaluate(net, data, batch_size=args.batch_size)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
-    if args.out:
-        out = Path(args.out)
+    if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "report.md").write_text(f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
-                                       f"({len(data)} samples)\n\n{table}\n")
-        (out / "report.json").write_text(json.dumps({"model": str(args.model), "data": str(args.data),
-                                                     "summary": result["summary"]}, indent=1))
+        write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
+                                             f"({len(data)} samples)\n\n{table}\n")
+        write_json_atomic(out / "report.json", {"model": str(args.model), "data": str(args.data),
+                                                "summary": result["summary"]})
         print(f"\nreport written to {out}")
     return 0
 
