@@ -10,7 +10,8 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
                      "vertex-to-vertex error in cm, overall, by partition and by gender, beside the "
                      "paper's mean-pose baseline (mean shape, supine, centred, straight limbs); and the "
                      "posture accuracy and stature error that evaluate-real reports on real images.")
-    p.add_argument("--model", required=True, help="trained model (.json with its .safetensors files, .pt, or a run folder)")
+    p.add_argument("--model", required=True,
+                   help="trained model (.json with its .safetensors files, .pt, or a run folder)")
     p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
@@ -107,14 +108,17 @@ def run_evaluate_real(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "metrics.json", metrics)
     rows = result["rows"]
-    per_image = [{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in rows.items()}
-                 for i in range(len(rows["image"]))]
+    betas = result["estimate"].betas
+    per_image = [{**{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in rows.items()},
+                  "betas": betas[i].tolist()} for i in range(len(rows["image"]))]
     write_json_atomic(out / "estimates.json", {"units": "metres, kg", "rows": per_image})
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
+    corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
     headline = (f"{result['n_images']} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "
                 f"skipped: {result['skipped']['inclined_bed']} inclined-bed, {result['skipped']['weak_recording']} "
                 f"weak recordings.\n\nposture accuracy {acc}, stature MAE {100 * s['stature_mae_m']:.1f} cm "
-                f"(bias {100 * s['stature_bias_m']:+.1f} cm), mass MAE {s['mass_mae_kg']:.1f} kg "
+                f"(bias {100 * s['stature_bias_m']:+.1f} cm, correlation with height "
+                f"{corr}), mass MAE {s['mass_mae_kg']:.1f} kg "
                 f"(bias {s['mass_bias_kg']:+.1f} kg), contact IoU {s['contact_iou']:.2f}")
     report = (f"# PressureNet on real images\n\nmodel: {args.model or 'shipped'}\n\n{headline}\n\n"
               f"## By posture\n\n{format_real_table(s)}\n\n## By posture label\n\n"

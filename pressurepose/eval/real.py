@@ -93,19 +93,28 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
             "n_images": int(keep.sum())}
 
 
+def _corr(a: np.ndarray, b: np.ndarray) -> float | None:
+    """Pearson correlation, None where it is undefined (fewer than 3 values or no spread)."""
+    if len(a) < 3 or np.std(a) == 0 or np.std(b) == 0:
+        return None
+    return float(np.corrcoef(a, b)[0, 1])
+
+
 def _stats(rows: dict, sel: np.ndarray) -> dict:
     scored = sel & rows["scored"]
     err_h, err_m = rows["stature_err_m"][sel], rows["mass_err_kg"][sel]
     return {"n": int(sel.sum()),
             "posture_accuracy": float(rows["correct"][scored].mean()) if scored.any() else None,
             "stature_mae_m": float(np.abs(err_h).mean()), "stature_bias_m": float(err_h.mean()),
+            "stature_r": _corr(rows["stature_m"][sel], rows["height_m"][sel]),
             "mass_mae_kg": float(np.abs(err_m).mean()), "mass_bias_kg": float(err_m.mean()),
             "contact_iou": float(rows["contact_iou"][sel].mean())}
 
 
 def summarise(rows: dict) -> dict:
-    """Overall scores, per subject, per posture label, per source posture name, per body model and
-    the posture confusion matrix ({label: {predicted: count}}, scored estimates only)."""
+    """Overall scores (stature_r: correlation of estimated stature with measured height), per subject,
+    per posture label, per source posture name, per body model and the posture confusion matrix
+    ({label: {predicted: count}}, scored estimates only)."""
     n = len(rows["image"])
     out = _stats(rows, np.ones(n, bool))
     out["n_estimates"] = out.pop("n")

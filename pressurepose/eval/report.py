@@ -89,7 +89,8 @@ def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_n
         if "posture_correct" in errs:
             err = errs["stature_err"][sel]
             out[name].update(posture_accuracy=float(np.mean(errs["posture_correct"][sel])),
-                             stature_mae_cm=100 * float(np.mean(np.abs(err))), stature_bias_cm=100 * float(np.mean(err)))
+                             stature_mae_cm=100 * float(np.mean(np.abs(err))),
+                             stature_bias_cm=100 * float(np.mean(err)))
         for row, _ in ROWS:
             out[name][row] = {m + "_cm": 100 * float(np.mean(errs[f"{row}_{m}"][sel])) for m in ("mpjpe", "v2v")}
     return out

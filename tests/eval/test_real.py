@@ -29,8 +29,8 @@ def test_posture_class_from_known_roll_and_the_side_it_lies_on():
     _, joints = TOY.forward(np.zeros((2, 10)), _poses(np.deg2rad([90, -90])))
     l, r = JOINT_NAMES.index("left_shoulder"), JOINT_NAMES.index("right_shoulder")
     assert joints[0, l, 2] < joints[0, r, 2] and joints[1, r, 2] < joints[1, l, 2]
-    assert ps.posture_correct(["lateral", "lateral", "left", "supine"], ["left", "right", "right", "supine"]).tolist() == [
-        True, True, False, True]
+    correct = ps.posture_correct(["lateral", "lateral", "left", "supine"], ["left", "right", "right", "supine"])
+    assert correct.tolist() == [True, True, False, True]
     conf = ps.confusion(["left", "left", "supine"], ["supine", "left", "supine"])
     assert conf == {"left": {"supine": 1, "left": 1, "right": 0, "prone": 0},
                     "supine": {"supine": 1, "left": 0, "right": 0, "prone": 0}}
@@ -77,7 +77,8 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
     assert m["posture_accuracy"] == pytest.approx(acc)
     assert m["stature_mae_m"] == pytest.approx(np.mean([abs(r["stature_m"] - r["height_m"]) for r in rows]))
     assert [r["body_model"] for r in rows] == ["f", "m", "f", "m"]
-    assert set(m["per_subject"]) == {"s0", "s1"} and sum(c for row in m["confusion"].values() for c in row.values()) == 4
+    assert set(m["per_subject"]) == {"s0", "s1"}
+    assert sum(c for row in m["confusion"].values() for c in row.values()) == 4
     assert 0 <= m["contact_iou"] <= 1 and (out / "gallery.png").stat().st_size > 0
     assert "| supine |" in (out / "report.md").read_text()
     # without a gender both body models estimate each image

@@ -88,7 +88,8 @@ def read_labels(path: str | Path) -> list[dict]:
         g = row.get("gender", "").lower()[:1]
         if g not in ("", "f", "m"):
             raise BadInput(f"{path} line {k}: gender {row['gender']!r}; expected f or m")
-        out.append(dict(posture=posture, height_m=h, weight_kg=w, gender=g, subject=row.get("subject", "") or str(k - 1)))
+        out.append(dict(posture=posture, height_m=h, weight_kg=w, gender=g,
+                        subject=row.get("subject", "") or str(k - 1)))
     return out
 
 
@@ -113,9 +114,8 @@ def read_labelled(folder: str | Path) -> RealImages:
     if not np.all(np.isfinite(images)) or np.any(images < 0):
         raise BadInput(f"{path}: readings must be finite and >= 0")
     n = len(labels)
-    return RealImages(images=images.astype(np.float32), posture=np.array([r["posture"] for r in labels]),
-                      detail=np.array([r["posture"] for r in labels]),
-                      height_m=np.array([r["height_m"] for r in labels]), weight_kg=np.array([r["weight_kg"] for r in labels]),
-                      gender=np.array([r["gender"] for r in labels]), subject=np.array([r["subject"] for r in labels]),
-                      source=np.array([f"{path}[{i}]" for i in range(n)]), frame=np.arange(n), mat=mat, units=units,
-                      layout="labelled", gain=gain)
+    col = lambda k: np.array([r[k] for r in labels])  # noqa: E731
+    return RealImages(images=images.astype(np.float32), posture=col("posture"), detail=col("posture"),
+                      height_m=col("height_m"), weight_kg=col("weight_kg"), gender=col("gender"),
+                      subject=col("subject"), source=np.array([f"{path}[{i}]" for i in range(n)]),
+                      frame=np.arange(n), mat=mat, units=units, layout="labelled", gain=gain)

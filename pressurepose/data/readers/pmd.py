@@ -140,7 +140,10 @@ def read_pmd_i(root: str | Path, frames: str = "one") -> RealImages:
             ok = valid_frames(stack)
             if not ok.any():
                 continue
-            chosen = [(-1, combine_frames(stack))] if frames == "one" else [(int(i), stack[i]) for i in np.nonzero(ok)[0]]
+            if frames == "one":
+                chosen = [(-1, combine_frames(stack))]
+            else:
+                chosen = [(int(i), stack[i]) for i in np.nonzero(ok)[0]]
             for idx, img in chosen:
                 records.append(dict(image=img, posture=posture, detail=detail, subject=subject, source=str(path),
                                     frame=idx, **info[subject]))
