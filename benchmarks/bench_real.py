@@ -114,9 +114,10 @@ def main() -> int:
         f"image is estimated with both body models and each estimate counts; contact = input above "
         f"{m['contact_mmhg']:g} mmHg).",
         "",
-        f"{m['n_images']} images of 13 adults ({m['n_estimates']} estimates); skipped {m['skipped']['inclined_bed']} "
-        f"inclined-bed recordings (postures 15-17) and {m['skipped']['weak_recording']} recording whose load is under "
-        f"10 % of its subject's median (S7 posture 1: the mat barely recorded it).",
+        f"{m['n_images']} images of {len(m['per_subject'])} adults ({m['n_estimates']} estimates); skipped "
+        f"{m['skipped']['inclined_bed']} inclined-bed recordings (postures 15-17) and "
+        f"{m['skipped']['weak_recording']} recording(s) whose load is under 10 % of their subject's median (a mat "
+        f"that barely recorded).",
         "",
         section("By posture"),
         "",

@@ -62,8 +62,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
         "measured height), mass error, and the contact IoU of the reconstructed map (PMR) with the input. "
         "DIR is a PhysioNet PMD experiment folder (I or II, detected) or a labelled folder (images.npy, "
         "labels.csv, mat.json; docs/data.md). Raw readings are weight-normalised to mmHg and resampled "
-        "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/report.md "
-        "(tables by posture, confusion matrix) and OUT/gallery.png (best and worst cases).")
+        "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/estimates.json "
+        "(one row per estimate), OUT/report.md (tables by posture, confusion matrix) and OUT/gallery.png (best "
+        "and worst cases by contact IoU).")
     p.add_argument("dir", help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--model", default=None, help="trained model (default: the shipped PressureNet)")
