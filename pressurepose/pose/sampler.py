@@ -68,10 +68,10 @@ between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5 along the bed). Withou
 4.3 -> 2.4 deg.
 The rest is the body model, not the procedure: SMPL's rest ankle lies ~5 cm behind the hip (ours
 level with it), so the same 0.2 m band admits other knee angles (moving our ankles back 4.8 cm in
-the height test brings knee flexion to W1 ~1 deg), and our trunk and limb capsules are slimmer
-than SMPLify's, so fewer arms across the chest and adducted legs collide (21% of our wrists lie
-over the chest, 14% of the public sampler's; 1.2x capsule radii brings the largest W1, shoulder
-swing, from 7 to 4.6 deg).
+the height test brings knee flexion to W1 ~1 deg), and the public code's collision capsules
+(SMPLify's, not available here) rejected more arms across the chest and adducted legs than ours
+do (21% of our wrists lie over the chest, 14% of the public sampler's; 1.2x capsule radii brings
+the largest W1, shoulder swing, from 7 to 4.6 deg).
 
 Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
 :func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
