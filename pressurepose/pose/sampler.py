@@ -65,15 +65,16 @@ candidates that passed height and bin (supine, a bent knee lowers the ankle up t
 hip, i.e. ~0.1 m below the back), raising the legs (hip flexion mean -52 deg against -38, W1 14
 deg); and bins counted along the body instead of the bed, which with yaw up to 30 deg moved ankles
 between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5 along the bed). Without them: mean W1
-4.3 -> 2.4 deg, and 1.5x the sampling rate. Its cost in settling, measured on 100 attempts (seed 7,
-50 per gender, :func:`pressurepose.sim.simulate.simulate_one`): general_supine accepted 94 with
-the test, 87 without (not settled 1 -> 5, posture changed 5 -> 7); general 62 and 60.
-The rest is the body model, not the procedure: SMPL's rest ankle lies ~5 cm behind the hip (ours
-level with it), so the same 0.2 m band admits other knee angles (moving our ankles back 4.8 cm in
-the height test brings knee flexion to W1 ~1 deg), and the public code's collision capsules
-(SMPLify's, not available here) rejected more arms across the chest and adducted legs than ours
-do (21% of our wrists lie over the chest, 14% of the public sampler's; 1.2x capsule radii brings
-the largest W1, shoulder swing, from 7 to 4.6 deg).
+4.3 -> 2.4 deg, and 1.5x the sampling rate. Dropping the test costs a little in settling (100
+attempts, seed 7, 50 per gender, :func:`pressurepose.sim.simulate.simulate_one`): general_supine
+accepted 94 with it, 87 without (not settled 1 -> 5, posture changed 5 -> 7); general 62 and 60.
+
+The rest is the body model, not the procedure. SMPL's rest ankle (neutral, betas 0) lies ~5 cm
+behind the hip and 2 cm lateral of it; ours lies level with the hip and 6.4 cm lateral, so the
+same tests admit other knee angles and hip twists (with SMPL's ankle offsets in the limb tests,
+knee flexion and hip twist come to W1 ~1 deg). The public code's collision capsules (SMPLify's,
+not available here) rejected more arms across the chest than ours do (14% of its wrists lie over
+the chest, 21% of ours; 1.2x capsule radii brings the largest W1, shoulder swing, from 7 to 4.6).
 
 Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
 :func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
