@@ -127,7 +127,8 @@ def main(argv=None) -> int:
         "(left hip x).",
         "",
         "Posed on our mean female body (limbs only): wrists more than 10 cm medial of their shoulder "
-        f"(over the chest) official {100 * ref_geo['medial_wrists']:.1f}%, ours {100 * ours_geo['medial_wrists']:.1f}%; "
+        f"(over the chest) official {100 * ref_geo['medial_wrists']:.1f}%, "
+        f"ours {100 * ours_geo['medial_wrists']:.1f}%; "
         f"ankles more than 0.2 m from their hip's height official {100 * ref_geo['ankles_out_of_band']:.1f}%, "
         f"ours {100 * ours_geo['ankles_out_of_band']:.1f}% (the public code held them within 0.2 m on SMPL, whose rest "
         "ankle lies ~5 cm behind the hip; ours lies level with it).",
@@ -136,8 +137,8 @@ def main(argv=None) -> int:
         "moving our rest ankles 4.8 cm back in the limb tests (SMPL's rest ankle lies that far behind "
         "the hip) brings knee flexion from W1 2.4-3.5 to 0.8-1.0, and 4.5 cm medially (SMPL's ankle lies "
         "2 cm lateral of the hip, ours 6.4 cm) brings hip twist (y) from 2.2-2.9 to 0.4-1.1 (both: mean "
-        "2.36), though hip abduction (z) then drifts to 4.5. The public code's collision capsules (SMPLify's regressor, each shifted "
-        "4 cm footward in its DART skeleton) cannot be rebuilt here, but its poses put fewer wrists over the "
+        "2.36), though hip abduction (z) then drifts to 4.5. The public code's collision capsules "
+        "(SMPLify's regressor, each shifted 4 cm footward in its DART skeleton) cannot be rebuilt here, but its poses put fewer wrists over the "
         "chest (above), as fuller capsules would: scaling every capsule radius by 1.2 in our collision tests "
         "brings the largest W1, right shoulder y, from 7.1 to 4.6 and the mean to 2.24. Neither is applied.",
     ]
