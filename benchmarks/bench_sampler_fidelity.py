@@ -138,7 +138,8 @@ def main(argv=None) -> int:
         "the hip) brings knee flexion from W1 2.4-3.5 to 0.8-1.0, and 4.5 cm medially (SMPL's ankle lies "
         "2 cm lateral of the hip, ours 6.4 cm) brings hip twist (y) from 2.2-2.9 to 0.4-1.1 (both: mean "
         "2.36), though hip abduction (z) then drifts to 4.5. The public code's collision capsules "
-        "(SMPLify's regressor, each shifted 4 cm footward in its DART skeleton) cannot be rebuilt here, but its poses put fewer wrists over the "
+        "(SMPLify's regressor, each shifted 4 cm footward in its DART skeleton) cannot be rebuilt here, "
+        "but its poses put fewer wrists over the "
         "chest (above), as fuller capsules would: scaling every capsule radius by 1.2 in our collision tests "
         "brings the largest W1, right shoulder y, from 7.1 to 4.6 and the mean to 2.24. Neither is applied.",
     ]
