@@ -25,6 +25,8 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "train": ("pressurepose.net.commands", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
     "infer": ("pressurepose.net.commands", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
     "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
+    "evaluate-real": ("pressurepose.eval.commands", "evaluate_real",
+                      "score a PressureNet on real pressure images: posture, stature, mass, contact (PMD or labelled folder)"),
 }
 
 

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 
 def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Evaluate a trained PressureNet on a generated dataset: MPJPE (24 joints) and "
                      "vertex-to-vertex error in cm, overall, by partition and by gender, beside the "
-                     "paper's mean-pose baseline (mean shape, supine, centred, straight limbs).")
-    p.add_argument("--model", required=True, help="trained model (.json with its .safetensors files, .pt, or a run folder)")
+                     "paper's mean-pose baseline (mean shape, supine, centred, straight limbs); and the "
+                     "posture accuracy and stature error that evaluate-real reports on real images.")
+    p.add_argument("--model", required=True,
+                   help="trained model (.json with its .safetensors files, .pt, or a run folder)")
     p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
@@ -30,8 +31,7 @@ def run_evaluate(args) -> int:
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.train import resolve_device
 
-    if args.out:
-        check_output_path(args.out, "--out", directory=True)
+    out = check_output_path(args.out, "--out", directory=True) if args.out else None
     if args.batch_size < 1:
         raise BadInput(f"--batch-size is {args.batch_size}; expected a whole number >= 1")
     if args.limit is not None and args.limit < 1:
@@ -46,12 +46,101 @@ def run_evaluate(args) -> int:
     result = evaluate(net, data, batch_size=args.batch_size, progress=True)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
-    if args.out:
-        out = Path(args.out)
+    if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
                                              f"({len(data)} samples)\n\n{table}\n")
         write_json_atomic(out / "report.json", {"model": str(args.model), "data": str(args.data),
                                                 "summary": result["summary"]})
         print(f"\nreport written to {out}")
+    return 0
+
+
+def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = (
+        "Run a PressureNet on real pressure images with known posture, height and weight and score it: "
+        "posture accuracy (supine / left / right / prone from the estimate's orientation; 'lateral' labels "
+        "match either side), stature error (standing height of the estimated body at zero pose minus the "
+        "measured height), mass error, and the contact IoU of the reconstructed map (PMR) with the input. "
+        "DIR is a PhysioNet PMD experiment folder (I or II, detected) or a labelled folder (images.npy, "
+        "labels.csv, mat.json; docs/data.md). Raw readings are weight-normalised to mmHg and resampled "
+        "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/estimates.json "
+        "(one row per estimate), OUT/report.md (tables by posture, confusion matrix) and OUT/gallery.png (best "
+        "and worst cases by contact IoU).")
+    p.add_argument("dir", help="real-data folder (PMD experiment I or II, or a labelled folder)")
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--model", default=None, help="trained model (default: the shipped PressureNet)")
+    p.add_argument("--gender", choices=("f", "m", "both"), default="both",
+                   help="body model for images whose gender is not recorded (PMD records none): f, m, or both "
+                        "(default: each such image is estimated with both body models and every summary counts "
+                        "both estimates; metrics.json splits them in by_body_model)")
+    p.add_argument("--force-gender", action="store_true",
+                   help="use --gender (f or m) even for images whose gender is recorded")
+    p.add_argument("--frames", choices=("one", "all"), default="one",
+                   help="PMD recordings: one image per file (median of its non-blank frames, default) or every "
+                        "non-blank frame")
+    p.add_argument("--gain", type=float, default=None,
+                   help="mmHg per raw unit from your mat's calibration (default: raw images are weight-normalised, "
+                        "their total force set to the person's weight)")
+    p.add_argument("--contact-mmhg", type=float, default=2.0,
+                   help="input taxels above this pressure count as contact for the IoU (default 2 mmHg)")
+    p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
+    p.add_argument("--device", default="cpu", help="cpu (default), cuda ...")
+
+
+def run_evaluate_real(args) -> int:
+    import dataclasses
+
+    import numpy as np
+
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.errors import BadInput
+    from pressurepose.eval.real import (RealEvalConfig, evaluate_real, format_confusion, format_real_table,
+                                        gallery_figure)
+    from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic, write_text_atomic
+    from pressurepose.net.infer import resolve_model
+
+    out = check_output_path(args.out, "--out", directory=True)
+    if args.force_gender and args.gender == "both":
+        raise BadInput("--force-gender needs --gender f or m")
+    config = RealEvalConfig(gender=args.gender, force_gender=args.force_gender, contact_mmhg=args.contact_mmhg,
+                            batch_size=args.batch_size)
+    real = read_real(args.dir, frames=args.frames)
+    if args.gain is not None:
+        if not args.gain > 0:
+            raise BadInput(f"--gain is {args.gain}; expected a positive number of mmHg per raw unit")
+        real = dataclasses.replace(real, gain=float(args.gain))
+    net = resolve_model(args.model).to(args.device)
+    result = evaluate_real(real, net, config)
+    s = result["summary"]
+    metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
+               "mat": real.mat.name, "units": real.units, "frames": args.frames, "gender": args.gender,
+               "gain": real.gain, "contact_mmhg": args.contact_mmhg, "n_images": result["n_images"], "skipped": result["skipped"],
+               **s}
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "metrics.json", metrics)
+    rows = result["rows"]
+    betas = result["estimate"].betas
+    per_image = [{**{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in rows.items()},
+                  "betas": betas[i].tolist()} for i in range(len(rows["image"]))]
+    write_json_atomic(out / "estimates.json", {"units": "metres, kg", "rows": per_image})
+    acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
+    corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
+    headline = (f"{result['n_images']} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "
+                f"skipped: {result['skipped']['inclined_bed']} inclined-bed, {result['skipped']['weak_recording']} "
+                f"weak recordings.\n\nposture accuracy {acc}, stature MAE {100 * s['stature_mae_m']:.1f} cm "
+                f"(bias {100 * s['stature_bias_m']:+.1f} cm, correlation with height "
+                f"{corr}), mass MAE {s['mass_mae_kg']:.1f} kg "
+                f"(bias {s['mass_bias_kg']:+.1f} kg), contact IoU {s['contact_iou']:.2f}")
+    report = (f"# PressureNet on real images\n\nmodel: {args.model or 'shipped'}\n\n{headline}\n\n"
+              f"## By posture\n\n{format_real_table(s)}\n\n## By posture label\n\n"
+              f"{format_real_table(s, 'per_posture')}\n\n## By body model\n\n{format_real_table(s, 'by_body_model')}"
+              f"\n\n## Posture confusion\n\n{format_confusion(s['confusion'])}\n")
+    write_text_atomic(out / "report.md", report)
+    import matplotlib.pyplot as plt
+
+    fig = gallery_figure(result)
+    save_figure_atomic(fig, out / "gallery.png", dpi=80)
+    plt.close(fig)
+    print(f"{headline}\n\n{format_real_table(s)}\n\n{format_confusion(s['confusion'])}\n\nwritten to {out}")
     return 0

@@ -1,5 +1,7 @@
 """The accuracy table (paper Table 2): a trained PressureNet and the mean-pose baseline on a dataset,
-MPJPE and v2v in cm, overall, by partition and by gender."""
+MPJPE and v2v in cm, overall, by partition and by gender; and, for comparison with real images
+(:mod:`pressurepose.eval.real`), Mod2's posture accuracy and the stature error of its body
+(estimated body's standing height minus the true body's, :mod:`pressurepose.eval.posture`)."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ import torch
 
 from pressurepose.errors import BadInput
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
+from pressurepose.eval.posture import body_stature_mass, posture_of
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
 
@@ -53,6 +56,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
     base = {g: baseline_body(_layer_forward(net, g), net.config.grid) for g in (0, 1)}
     base_out = {g: _layer_forward(net, g)(*(a[None] for a in base[g])) for g in (0, 1)}
     errs = {f"{row}_{m}": np.zeros(n) for row, _ in ROWS for m in ("mpjpe", "v2v")}
+    errs.update(posture_correct=np.zeros(n, bool), stature_err=np.zeros(n))
     for s in tqdm(range(0, n, batch_size), desc="evaluate", unit="batch", disable=not progress):
         sl = slice(s, min(s + batch_size, n))
         gender = t["gender"][sl].to(device)
@@ -65,6 +69,11 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
             errs[f"{row}_mpjpe"][sl] = mpjpe(out.joints.cpu().numpy(), tj)
             errs[f"{row}_v2v"][sl] = v2v(out.vertices.cpu().numpy(), tv)
         g = gender.cpu().numpy()
+        names = [GENDER_NAMES[int(x)] for x in g]
+        errs["posture_correct"][sl] = posture_of(out2.params.pose.cpu().numpy()) == posture_of(t["pose"][sl].numpy())
+        h_est, _ = body_stature_mass(net, out2.params.betas.cpu().numpy(), names)
+        h_true, _ = body_stature_mass(net, t["betas"][sl].numpy(), names)
+        errs["stature_err"][sl] = h_est - h_true
         bv = np.stack([base_out[int(x)][0][0] for x in g])
         bj = np.stack([base_out[int(x)][1][0] for x in g])
         errs["baseline_mpjpe"][sl] = mpjpe(bj, tj)
@@ -74,7 +83,8 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
 
 
 def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_names) -> dict:
-    """{group: {row: {"mpjpe_cm", "v2v_cm"}, "count"}} for "all", each partition and each gender."""
+    """{group: {row: {"mpjpe_cm", "v2v_cm"}, "count", "posture_accuracy", "stature_mae_cm",
+    "stature_bias_cm"}} for "all", each partition and each gender (posture and stature: Mod2)."""
     groups = {"all": np.ones(len(gender), bool)}
     for p in np.unique(partition):
         groups[f"partition:{partition_names[int(p)]}"] = partition == p
@@ -83,6 +93,11 @@ def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_n
     out = {}
     for name, sel in groups.items():
         out[name] = {"count": int(sel.sum())}
+        if "posture_correct" in errs:
+            err = errs["stature_err"][sel]
+            out[name].update(posture_accuracy=float(np.mean(errs["posture_correct"][sel])),
+                             stature_mae_cm=100 * float(np.mean(np.abs(err))),
+                             stature_bias_cm=100 * float(np.mean(err)))
         for row, _ in ROWS:
             out[name][row] = {m + "_cm": 100 * float(np.mean(errs[f"{row}_{m}"][sel])) for m in ("mpjpe", "v2v")}
     return out
@@ -94,10 +109,12 @@ def format_table(summary: dict) -> str:
     for row, label in ROWS:
         r = summary["all"][row]
         lines.append(f"| {label} | {r['mpjpe_cm']:.2f} | {r['v2v_cm']:.2f} |")
-    lines += ["", "| group | n | MPJPE (cm) | v2v (cm) | BL MPJPE (cm) | BL v2v (cm) |", "|---|---|---|---|---|---|"]
+    lines += ["", "| group | n | MPJPE (cm) | v2v (cm) | BL MPJPE (cm) | BL v2v (cm) | posture acc. | "
+              "stature MAE (cm) | stature bias (cm) |", "|---|---|---|---|---|---|---|---|---|"]
     for name, s in summary.items():
-        if name == "all":
-            continue
-        lines.append(f"| {name.split(':', 1)[1]} | {s['count']} | {s['mod2']['mpjpe_cm']:.2f} | "
-                     f"{s['mod2']['v2v_cm']:.2f} | {s['baseline']['mpjpe_cm']:.2f} | {s['baseline']['v2v_cm']:.2f} |")
+        label = "all" if name == "all" else name.split(":", 1)[1]
+        extra = (f" {s['posture_accuracy']:.2f} | {s['stature_mae_cm']:.1f} | {s['stature_bias_cm']:+.1f} |"
+                 if "posture_accuracy" in s else " - | - | - |")
+        lines.append(f"| {label} | {s['count']} | {s['mod2']['mpjpe_cm']:.2f} | {s['mod2']['v2v_cm']:.2f} | "
+                     f"{s['baseline']['mpjpe_cm']:.2f} | {s['baseline']['v2v_cm']:.2f} |{extra}")
     return "\n".join(lines)

@@ -40,10 +40,12 @@ class SamplerConfig:
     (where the paper means them to be: "distal joints ... close to the surface of the bed") instead
     of up to 0.6 m above it (see the sampler's module docstring). Hands-behind-head arms keep their
     own band.
-    max_limb_sink: how far a limb capsule may reach below the surface the body lies on (0.05 m: the
-    trunk sinks up to ~6.5 cm into the foam and a lightly loaded limb ~1.5-2 cm, REFERENCE section 5,
-    so a limb this much lower is pressed into the mattress by the settling trunk instead of lifting
-    and rolling it). clearance: start height of the lowest capsule surface above the mattress.
+    max_limb_sink: None (default) or how far a limb capsule may reach below the surface the body lies
+    on, m (the opt-in ``into_bed`` test; e.g. 0.05: the trunk sinks up to ~6.5 cm into the foam and a
+    lightly loaded limb ~1.5-2 cm, REFERENCE section 5). Neither the paper nor the public code has
+    this test, and on ``general_supine`` it biased the limbs (hip flexion -52 deg mean against the
+    public sampler's -38, see the sampler's module docstring), so it is off unless asked for.
+    clearance: start height of the lowest capsule surface above the mattress.
     mattress: (x_min, x_max, y_min, y_max) outline in the bed frame (for limbs_on_bed and the centre).
     candidates_per_round: limb candidates drawn per body in a first round, doubling each further
     round up to 16 times as many (a speed knob; it changes which samples a seed gives).
@@ -57,7 +59,7 @@ class SamplerConfig:
     height_band: float = 0.2
     height_reference: str = "proximal"
     bed_height_band: tuple[float, float] = (-0.1, 0.3)
-    max_limb_sink: float = 0.05
+    max_limb_sink: float | None = None
     clearance: float = 0.015
     mattress: tuple[float, float, float, float] = DEFAULT_MATTRESS
     candidates_per_round: int = 64
@@ -70,8 +72,11 @@ class SamplerConfig:
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance"):
             v = getattr(self, f)
+            if f == "max_limb_sink" and v is None:
+                continue
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
+                none = " or None" if f == "max_limb_sink" else ""
+                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0{none}")
         if self.height_reference not in HEIGHT_REFERENCES:
             raise BadInput(f"sampler height_reference is {self.height_reference!r}; expected one of "
                            f"{', '.join(HEIGHT_REFERENCES)}")

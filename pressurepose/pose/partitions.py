@@ -1,8 +1,9 @@
 """The PressurePose posture partitions (paper appendix A.7, REFERENCE sections 2-3), as data.
 
 Cartesian bins (paper appendix A.1): the distal joint of each limb (ankle, wrist) is placed along
-the body's long axis relative to its proximal joint (hip, shoulder), in steps of a quarter of the
-limb's length. Bins are numbered from the head end toward the feet:
+the bed's long axis (the body lies along it, yawed up to 30 deg) relative to its proximal joint
+(hip, shoulder), in steps of a quarter of the limb's length. Bins are numbered from the head end
+toward the feet:
 
 * legs, 4 bins: the ankle is less than 1/4, 1/4-1/2, 1/2-3/4, more than 3/4 leg length footward
   of the hip (bin 0 also takes an ankle level with or above the hip);
@@ -87,10 +88,10 @@ def get_partition(name) -> Partition:
 
 
 def leg_bin(footward: np.ndarray, leg_length) -> np.ndarray:
-    """Leg bin (int array) of ankles ``footward`` m along the body axis from the hip (footward +)."""
+    """Leg bin (int array) of ankles ``footward`` m along the bed from the hip (footward +)."""
     return np.clip(np.floor(4.0 * np.asarray(footward) / leg_length), 0, LEG_BINS - 1).astype(np.int64)
 
 
 def arm_bin(footward: np.ndarray, arm_length) -> np.ndarray:
-    """Arm bin (int array) of wrists ``footward`` m along the body axis from the shoulder."""
+    """Arm bin (int array) of wrists ``footward`` m along the bed from the shoulder."""
     return np.clip(np.floor(4.0 * np.asarray(footward) / arm_length) + 4, 0, ARM_BINS - 1).astype(np.int64)

@@ -125,9 +125,10 @@ class Run:
     def _limb_causes(self, li: int, b: np.ndarray, cand: np.ndarray) -> np.ndarray:
         """Cause code (P, K) of each candidate (0: accepted, c + 1: LIMB_CAUSES[c]) for bodies b.
 
-        Bins and sides need no root: the body's head direction and left are SMPL's +y and +x.
-        Heights are the bed-frame z = M[2] . (p - pelvis_rest) (pelvis at height 0). Height and bin,
-        the most selective tests, run on the joints alone; the rest only on the candidates left.
+        Heights are the bed-frame z = M[2] . (p - pelvis_rest) (pelvis at height 0) and bins count
+        along the bed's long axis, footward = M[1] . (distal - proximal) (the bed frame's +y is
+        footward), as the public code measured both on the posed, yawed body. Height and bin, the
+        most selective tests, run on the joints alone; the rest only on the candidates left.
         """
         limb, part, cfg = LIMBS[li], self.part, self.cfg
         aa = limb.local_axis_angles(cand, self.limits)
@@ -138,7 +139,8 @@ class Run:
         band = part.arm_height_band if (not limb.is_leg and part.arm_height_band) else (
             -cfg.height_band, cfg.height_band)
         length = self.lengths[b, li][:, None]
-        got = leg_bin(-reach[..., 1], length) if limb.is_leg else arm_bin(-reach[..., 1], length)
+        footward = np.sum(reach * self.M[b, 1][:, None, :], axis=-1)
+        got = leg_bin(footward, length) if limb.is_leg else arm_bin(footward, length)
         if cfg.height_reference == "bed" and not (part.arm_height_band and not limb.is_leg):
             # the distal joint's height above the surface the body lies on (both pelvis-relative)
             proximal = np.sum((pos[:, :, ip] - self.rest[b, 0][:, None]) * self.M[b, 2][:, None, :], axis=-1)
@@ -157,13 +159,14 @@ class Run:
         limb, part, cfg = LIMBS[li], self.part, self.cfg
         pos, ends = limb_geometry(limb, aa, self.rest[bodies], self.cap_ends[bodies])
         pos, ends = pos[:, 0], ends[:, 0]
-        m2 = self.M[bodies, 2]  # (N, 3): bed-frame height of an SMPL-frame vector
-        z0 = -np.sum(m2 * self.rest[bodies, 0], axis=-1)  # pelvis at height 0
-        ends_z = np.sum(ends * m2[:, None, None], axis=-1) + z0[:, None, None]  # (N, n_caps, 2)
-        lowest = (ends_z.min(-1) - self.cap_radius[bodies][:, list(limb.capsules)]).min(-1)
         no = np.zeros(len(bodies), dtype=bool)
-        tests = {_INTO_BED: lowest < self.support[bodies] - cfg.max_limb_sink, _OFF_MATTRESS: no,
-                 _NOT_BEHIND_HEAD: no}
+        tests = {_INTO_BED: no, _OFF_MATTRESS: no, _NOT_BEHIND_HEAD: no}
+        if cfg.max_limb_sink is not None:
+            m2 = self.M[bodies, 2]  # (N, 3): bed-frame height of an SMPL-frame vector
+            z0 = -np.sum(m2 * self.rest[bodies, 0], axis=-1)  # pelvis at height 0
+            ends_z = np.sum(ends * m2[:, None, None], axis=-1) + z0[:, None, None]  # (N, n_caps, 2)
+            lowest = (ends_z.min(-1) - self.cap_radius[bodies][:, list(limb.capsules)]).min(-1)
+            tests[_INTO_BED] = lowest < self.support[bodies] - cfg.max_limb_sink
         if self.on_bed:
             x0, x1, y0, y1 = cfg.mattress
             pts = pos[:, None, [limb.chain.index(j) for j in limb.on_bed]]

@@ -103,6 +103,9 @@ MATS: dict[str, MatSpec] = {
     "boditrak_bt3510": MatSpec("boditrak_bt3510", 64, 27, 0.0286, 0.0286, 100.0),
     "slp": MatSpec("slp", 192, 84, 0.010, 0.010, 100.0),
     "tip": MatSpec("tip", 56, 40, 0.0311, 0.0195, 100.0),
+    # Vista Medical FSA SoftFlex 2048 (PhysioNet PMD experiment I): pitch undocumented, fitted from
+    # the subjects' heights (pressurepose.data.realprep.fit_pitch; docs/data.md), square taxels assumed
+    "fsa_softflex_2048": MatSpec("fsa_softflex_2048", 64, 32, 0.0280, 0.0280, 100.0),
 }
 DEFAULT_MAT = "boditrak_bt3510"
 

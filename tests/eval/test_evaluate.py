@@ -54,11 +54,19 @@ def test_evaluate_matches_direct_computation(setup):
     _, bj = body.forward(b, p, t)
     np.testing.assert_allclose(result["errors"]["baseline_mpjpe"], mpjpe(np.repeat(bj, 4, 0), data["joints"].numpy()),
                                atol=1e-5)
+    from pressurepose.eval.posture import posture_of
+
+    correct = posture_of(est.pose) == posture_of(data["pose"].numpy())
+    np.testing.assert_array_equal(result["errors"]["posture_correct"], correct)
+    np.testing.assert_allclose(result["errors"]["stature_err"],
+                               body.height(est.betas) - body.height(data["betas"].numpy()), atol=1e-5)
     s = result["summary"]
+    assert s["all"]["posture_accuracy"] == pytest.approx(correct.mean())
+    assert s["all"]["stature_bias_cm"] == pytest.approx(100 * result["errors"]["stature_err"].mean())
     assert s["all"]["count"] == 4 and s["gender:f"]["count"] + s["gender:m"]["count"] == 4
     assert s["partition:general_supine"]["count"] == 2
     table = format_table(s)
-    assert "mean-pose baseline" in table and "supine_straight_limbs" in table
+    assert "mean-pose baseline" in table and "supine_straight_limbs" in table and "posture acc." in table
 
 
 def test_evaluate_verb(setup, capsys):

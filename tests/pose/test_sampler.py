@@ -103,19 +103,37 @@ def test_root_transform_of_the_partition(case):
     assert np.all(np.abs(batch.joints[:, 0, :2] - centre) <= 0.2 + 1e-9)
 
 
-def test_start_height_and_bed_awareness(case, female):
-    _, batch = case
-    ends, radius = capsules_of(female, batch)
+def limbs_below_support(body, batch):
+    """(N,) how far the lowest limb capsule surface lies below the surface the body lies on (support
+    capsules with the limbs at rest, root pose only), m; and the lowest capsule surface (N, 20)."""
+    ends, radius = capsules_of(body, batch)
     lowest = ends[..., 2].min(-1) - radius  # (N, 20)
-    np.testing.assert_allclose(lowest.min(1), SamplerConfig().clearance, atol=1e-9)
-    # the surface the body lies on: support capsules with the limbs at rest (root pose only)
     root_only = np.zeros_like(batch.pose)
     root_only[:, :3] = batch.pose[:, :3]
-    rest_ends, _ = capsules_of(female, batch, root_only)
+    rest_ends, _ = capsules_of(body, batch, root_only)
     idx = [CAPSULE_NAMES.index(n) for n in SUPPORT]
     support = (rest_ends[:, idx][..., 2].min(-1) - radius[:, idx]).min(1)
     limbs = lowest[:, [CAPSULE_NAMES.index(n) for n in LIMB_CAPSULES]].min(1)
-    assert np.all(limbs >= support - SamplerConfig().max_limb_sink - 1e-9)
+    return support - limbs, lowest
+
+
+def test_start_height(case, female):
+    _, batch = case
+    _, lowest = limbs_below_support(female, batch)
+    np.testing.assert_allclose(lowest.min(1), SamplerConfig().clearance, atol=1e-9)
+
+
+def test_into_bed_test_is_opt_in(batch_of, female):
+    """Off by default (as in the paper and the public code, whose supine limbs reach up to ~0.15 m
+    below the back); with max_limb_sink set, no limb capsule starts further below the support."""
+    from pressurepose.pose import sample_bodies
+
+    sink = 0.05
+    below, _ = limbs_below_support(female, batch_of("general_supine", False, 300, 13))
+    assert np.mean(below > sink + 0.01) > 0.1
+    bounded = sample_bodies("general", "f", 40, 21, body=female, config=SamplerConfig(max_limb_sink=sink))
+    below, _ = limbs_below_support(female, bounded)
+    assert np.all(below <= sink + 1e-9)
 
 
 def test_distal_joints_near_the_height_of_their_proximal_joints(case):
@@ -141,8 +159,12 @@ def recomputed_bins(joints, head, rest):
     return np.stack(out, axis=1).astype(int)
 
 
+BED_HEADWARD = np.array([0.0, -1.0, 0.0])  # bins count along the bed (row 0 at the head end)
+
+
 def bins_of(batch, female):
-    return recomputed_bins(batch.joints, axes(batch)[0], female.rest(batch.betas)[1])
+    head = np.broadcast_to(BED_HEADWARD, (len(batch), 3))
+    return recomputed_bins(batch.joints, head, female.rest(batch.betas)[1])
 
 
 def test_partition_definitions(case, female):
@@ -196,8 +218,7 @@ def test_distal_joints_spread_evenly_over_the_bins(batch_of, female):
         pose[:, J(f"{s}_knee"), 0] = rng.uniform(lim.lower[J(f"{s}_knee"), 0], lim.upper[J(f"{s}_knee"), 0], n)
     betas = np.zeros((n, 10))
     joints, _ = joint_frames(female, betas, pose.reshape(n, 72))
-    head = np.broadcast_to(axes(batch)[0][:1], (n, 3))
-    naive = recomputed_bins(joints, head, female.rest(betas)[1])[:, :2]
+    naive = recomputed_bins(joints, np.broadcast_to(BED_HEADWARD, (n, 3)), female.rest(betas)[1])[:, :2]
     z = joints[..., 2]
     band = np.abs(z[:, [J("left_ankle"), J("right_ankle")]] - z[:, [J("left_hip"), J("right_hip")]]) <= 0.2
     assert stats.chisquare(np.bincount(naive[band], minlength=4)).pvalue < 1e-6

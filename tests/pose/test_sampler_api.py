@@ -127,3 +127,10 @@ def test_cli_bad_partition_is_a_clear_error(tmp_path, capsys):
     assert rc == 2
     err = capsys.readouterr().err
     assert "nope" in err and "general_supine" in err
+
+
+def test_cli_max_limb_sink_is_checked(tmp_path, capsys):
+    rc = main(["sample", "--partition", "supine", "--gender", "f", "--count", "1", "--seed", "0",
+               "--max-limb-sink", "-1", "--out", str(tmp_path / "x.npz")])
+    assert rc == 2
+    assert "max_limb_sink" in capsys.readouterr().err

@@ -16,11 +16,11 @@ def test_presets_match_the_published_grids():
     tip = get_mat("tip")
     assert tip.shape == (56, 40) and (tip.pitch_row_m, tip.pitch_col_m) == (0.0311, 0.0195)
     assert get_bed().mat == bt  # the default
-    assert set(MATS) == {"boditrak_bt3510", "slp", "tip"}
+    assert set(MATS) == {"boditrak_bt3510", "fsa_softflex_2048", "slp", "tip"}
 
 
 def test_unknown_preset_lists_the_valid_names():
-    with pytest.raises(BadInput, match="boditrak_bt3510, slp, tip"):
+    with pytest.raises(BadInput, match="boditrak_bt3510, fsa_softflex_2048, slp, tip"):
         get_mat("xsensor")
     with pytest.raises(BadInput, match="slp"):
         get_bed("nope")

@@ -1,0 +1,122 @@
+"""A generic labelled folder of real pressure images, which anyone can make from their own mat::
+
+    images.npy   (N, rows, cols) readings, row 0 at the head end (read with allow_pickle=False)
+    labels.csv   one row per image: posture (supine, left, right, lateral, prone; left / right = the
+                 side the person lies on, lateral = either), height_m, weight_kg; optional gender
+                 (f / m) and subject
+    mat.json     {"preset": "boditrak_bt3510"} or {"rows": 64, "cols": 27, "pitch_m": 0.0286
+                 (, "pitch_col_m": ...)}, and "units": "mmHg" or "raw" (optional "gain": mmHg per
+                 raw unit; raw images without a gain are weight-normalised)
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from pressurepose.data.readers.real import RealImages
+from pressurepose.errors import BadInput
+from pressurepose.files import numpy_load_problem
+from pressurepose.sim.bed import MatSpec, custom_mat, get_mat
+
+REQUIRED = ("posture", "height_m", "weight_kg")
+POSTURES = ("supine", "left", "right", "lateral", "prone")
+UNITS = ("mmHg", "raw")
+
+
+def read_mat_json(path: str | Path) -> tuple[MatSpec, str, float | None]:
+    """(mat, units, gain) from a ``mat.json``."""
+    path = Path(path)
+    if not path.is_file():
+        raise BadInput(f"{path} does not exist; expected a mat.json with preset (or rows, cols, pitch_m) and units")
+    try:
+        d = json.loads(path.read_text())
+    except (OSError, UnicodeError, json.JSONDecodeError) as exc:
+        raise BadInput(f"{path}: not readable JSON ({exc})") from None
+    if not isinstance(d, dict):
+        raise BadInput(f"{path}: expected a JSON object")
+    try:
+        if "preset" in d:
+            mat = get_mat(d["preset"])
+        elif {"rows", "cols", "pitch_m"} <= set(d):
+            mat = custom_mat(d["rows"], d["cols"], d["pitch_m"], d.get("pitch_col_m"))
+        else:
+            raise BadInput("expected 'preset' or 'rows', 'cols' and 'pitch_m'")
+    except BadInput as exc:
+        raise BadInput(f"{path}: unknown mat: {exc}") from None
+    units = d.get("units")
+    if units not in UNITS:
+        raise BadInput(f"{path}: units is {units!r}; expected one of {', '.join(UNITS)}")
+    gain = d.get("gain")
+    if gain is not None and (not isinstance(gain, (int, float)) or not math.isfinite(gain) or gain <= 0):
+        raise BadInput(f"{path}: gain is {gain!r}; expected a positive number of mmHg per raw unit")
+    return mat, units, None if gain is None else float(gain)
+
+
+def read_labels(path: str | Path) -> list[dict]:
+    """Rows of ``labels.csv`` checked: posture known, height (m) and weight (kg) positive."""
+    path = Path(path)
+    if not path.is_file():
+        raise BadInput(f"{path} does not exist; expected labels.csv with columns {', '.join(REQUIRED)}")
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+            fields = [f.strip() for f in (rows and rows[0].keys() or [])]
+    except (OSError, UnicodeError, csv.Error) as exc:
+        raise BadInput(f"{path}: not readable CSV ({exc})") from None
+    if not rows:
+        raise BadInput(f"{path} has no rows; expected a header and one row per image")
+    missing = [c for c in REQUIRED if c not in fields]
+    if missing:
+        raise BadInput(f"{path} is missing column(s) {', '.join(missing)}; expected {', '.join(REQUIRED)} "
+                       f"(and optionally gender, subject)")
+    out = []
+    for k, raw in enumerate(rows, start=2):
+        row = {str(key).strip(): (v or "").strip() for key, v in raw.items() if key is not None}
+        posture = row["posture"].lower()
+        if posture not in POSTURES:
+            raise BadInput(f"{path} line {k}: posture {row['posture']!r}; expected one of {', '.join(POSTURES)}")
+        try:
+            h, w = float(row["height_m"]), float(row["weight_kg"])
+        except ValueError:
+            raise BadInput(f"{path} line {k}: height_m and weight_kg must be numbers") from None
+        if not (0.5 < h < 2.6) or not (10 < w < 400):
+            raise BadInput(f"{path} line {k}: height {h} m / weight {w} kg out of range (metres and kg expected)")
+        g = row.get("gender", "").lower()[:1]
+        if g not in ("", "f", "m"):
+            raise BadInput(f"{path} line {k}: gender {row['gender']!r}; expected f or m")
+        out.append(dict(posture=posture, height_m=h, weight_kg=w, gender=g,
+                        subject=row.get("subject", "") or str(k - 1)))
+    return out
+
+
+def read_labelled(folder: str | Path) -> RealImages:
+    """Read a generic labelled folder (see the module docstring)."""
+    folder = Path(folder)
+    mat, units, gain = read_mat_json(folder / "mat.json")
+    labels = read_labels(folder / "labels.csv")
+    path = folder / "images.npy"
+    if not path.is_file():
+        raise BadInput(f"{path} does not exist; expected (N, rows, cols) pressure images")
+    try:
+        images = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise BadInput(f"{path}: not a readable .npy array ({numpy_load_problem(path, exc)})") from None
+    if images.dtype.kind not in "fiu" or images.ndim != 3 or images.shape[1:] != mat.shape:
+        raise BadInput(f"{path} has shape {images.shape} ({images.dtype}); its mat {mat.name} is {mat.rows} x "
+                       f"{mat.cols}, expected numbers of shape (N, {mat.rows}, {mat.cols})")
+    if len(images) != len(labels):
+        raise BadInput(f"{path} holds {len(images)} images but {folder / 'labels.csv'} has {len(labels)} rows")
+    images = images.astype(np.float64)
+    if not np.all(np.isfinite(images)) or np.any(images < 0):
+        raise BadInput(f"{path}: readings must be finite and >= 0")
+    n = len(labels)
+    col = lambda k: np.array([r[k] for r in labels])  # noqa: E731
+    return RealImages(images=images.astype(np.float32), posture=col("posture"), detail=col("posture"),
+                      height_m=col("height_m"), weight_kg=col("weight_kg"), gender=col("gender"),
+                      subject=col("subject"), source=np.array([f"{path}[{i}]" for i in range(n)]),
+                      frame=np.arange(n), mat=mat, units=units, layout="labelled", gain=gain)

@@ -1,0 +1,194 @@
+"""PhysioNet "A Pressure Map Dataset for In-bed Posture Classification" (PMD 1.0.0; Pouyan,
+Birjandtalab, Heydarzadeh, Nourani, Ostadabbas, IEEE BHI 2017; Open Data Commons Attribution).
+
+Experiment I (Vista Medical FSA SoftFlex 2048 mat, 64 x 32, raw 0-1000, mat preset
+``fsa_softflex_2048``)::
+
+    subject-info-i.csv        Subject-Number, Age, Height/cm, Weight/kg (no sex recorded)
+    S<n>/<posture>.txt        one frame a line: 2048 tab-separated readings, row-major 64 x 32,
+                              row 0 at the head end; the first frames can be blank (start-up)
+
+Postures (file number): 1 supine, 2 right side, 3 left side, 4-5 right 30 / 60 deg (wedge), 6-7
+left 30 / 60 deg, 8 supine star, 9 supine hands crossed, 10 supine knee up, 11 / 12 supine right /
+left knee up, 13 right fetal, 14 left fetal, 15-17 supine with the bed's head raised 30, 45, 60 deg
+('inclined': not a flat bed, not scored). 'right' and 'left' are read as the side the person lies
+on (the clinical "right lateral" position). The columns then need no flip: in the right-side
+images (2 and 13) the knees lie toward higher columns than the hips (26 of 26; in the left-side
+images 3 and 14, 24 of 26 toward lower columns; ``benchmarks/bench_real.py``), as a body lying on
+its right side faces +x in the project's bed frame (a supine body's left side toward column 0).
+Images alone cannot tell a mirrored mat from swapped labels; this rests on that reading of the
+labels.
+
+Experiment II (BodiTrak BT3510 mat, 27 x 64, raw 0-500; each file the average of about 20
+frames; two mattresses; the FEET at row 0, flipped here)::
+
+    subject-info-ii.csv                     UTF-16 text: subject, height, weight (columns by name)
+    S<n>/{Sponge,Air}_Mat/Matrix_{Sponge,Air}_<letter><k>.txt   64 lines of 27 space-separated values
+
+The posture letter is read as B (back) supine, R right side, L left side, P prone; other letters
+are kept in ``detail`` and not scored for posture. This layout is built from the dataset's
+description alone (the project keeps experiment II apart as an independent test).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from pressurepose.data.readers.real import RealImages, make_real
+from pressurepose.data.realprep import combine_frames, orient, valid_frames
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import get_mat
+
+PMD_I_POSTURES: dict[int, tuple[str, str]] = {
+    1: ("supine", "supine"), 2: ("right", "right side"), 3: ("left", "left side"),
+    4: ("right", "right 30 deg (wedge)"), 5: ("right", "right 60 deg (wedge)"),
+    6: ("left", "left 30 deg (wedge)"), 7: ("left", "left 60 deg (wedge)"),
+    8: ("supine", "supine star"), 9: ("supine", "supine hands crossed"), 10: ("supine", "supine knee up"),
+    11: ("supine", "supine right knee up"), 12: ("supine", "supine left knee up"),
+    13: ("right", "right fetal"), 14: ("left", "left fetal"),
+    15: ("inclined", "supine, bed head 30 deg"), 16: ("inclined", "supine, bed head 45 deg"),
+    17: ("inclined", "supine, bed head 60 deg"),
+}
+PMD_II_LETTERS = {"B": "supine", "R": "right", "L": "left", "P": "prone"}
+PMD_I_SHAPE, PMD_II_SHAPE = (64, 32), (64, 27)
+
+
+def _read_text(path: Path, encoding: str = "utf-8") -> str:
+    try:
+        return path.read_text(encoding=encoding)
+    except (OSError, UnicodeError) as exc:
+        raise BadInput(f"{path}: cannot read as {encoding} text ({exc})") from None
+
+
+def read_subject_info(path: str | Path, encoding: str = "utf-8") -> dict[str, dict]:
+    """{subject number as str: {'height_m', 'weight_kg', 'gender'}} from a PMD subject file.
+
+    Columns are found by name (one containing 'subject', 'height', 'weight', optionally 'sex' or
+    'gender'); heights above 3 are taken as cm. Comma, semicolon or tab separated."""
+    path = Path(path)
+    text = _read_text(path, encoding).lstrip("\ufeff")
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if not lines:
+        raise BadInput(f"{path} is empty; expected a header and one row per subject")
+    delim = max(",;\t", key=lines[0].count)
+    rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delim))
+    header = [h.strip().lower() for h in rows[0]]
+
+    def find(*keys, required=True):
+        for i, h in enumerate(header):
+            if any(k in h for k in keys):
+                return i
+        if required:
+            raise BadInput(f"{path}: no {'/'.join(keys)} column in the header {rows[0]}")
+        return None
+
+    i_s, i_h, i_w, i_g = find("subject"), find("height"), find("weight"), find("sex", "gender", required=False)
+    out = {}
+    for k, row in enumerate(rows[1:], start=2):
+        try:
+            h, w = float(row[i_h]), float(row[i_w])
+            subject = str(int(float(row[i_s])))
+        except (ValueError, IndexError):
+            raise BadInput(f"{path} line {k}: expected numbers for subject, height and weight, got {row}") from None
+        g = row[i_g].strip().lower()[:1] if i_g is not None and i_g < len(row) else ""
+        out[subject] = {"height_m": h / 100.0 if h > 3 else h, "weight_kg": w, "gender": g if g in ("f", "m") else ""}
+    return out
+
+
+def _subject_folders(root: Path) -> list[tuple[str, Path]]:
+    found = [(p.name[1:], p) for p in root.glob("S*") if p.is_dir() and p.name[1:].isdigit()]
+    return sorted(((str(int(n)), p) for n, p in found), key=lambda t: int(t[0]))
+
+
+def read_pmd_i_file(path: str | Path) -> np.ndarray:
+    """All frames (F, 64, 32) of one experiment-I file, as stored."""
+    path = Path(path)
+    frames = []
+    for k, line in enumerate(_read_text(path).splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            values = np.array(line.split(), dtype=np.float64)
+        except ValueError:
+            raise BadInput(f"{path} line {k}: not all readings are numbers") from None
+        if values.size != PMD_I_SHAPE[0] * PMD_I_SHAPE[1]:
+            raise BadInput(f"{path} line {k} has {values.size} readings; expected 2048 (one 64 x 32 frame)")
+        frames.append(values.reshape(PMD_I_SHAPE))
+    if not frames:
+        raise BadInput(f"{path} holds no frames")
+    return np.stack(frames)
+
+
+def read_pmd_i(root: str | Path, frames: str = "one") -> RealImages:
+    """PMD experiment I: every ``S<n>/<posture>.txt`` with a subject in ``subject-info-i.csv``.
+
+    frames: 'one' the median of each file's valid frames, 'all' each valid frame. Files without a
+    valid frame are left out."""
+    root = Path(root)
+    info = read_subject_info(root / "subject-info-i.csv")
+    records = []
+    for subject, folder in _subject_folders(root):
+        if subject not in info:
+            raise BadInput(f"{folder}: subject {subject} is not in {root / 'subject-info-i.csv'}")
+        for path in sorted(folder.glob("*.txt"), key=lambda p: (len(p.stem), p.stem)):
+            if not path.stem.isdigit() or int(path.stem) not in PMD_I_POSTURES:
+                raise BadInput(f"{path}: expected a posture number 1-17 as the file name")
+            posture, detail = PMD_I_POSTURES[int(path.stem)]
+            stack = read_pmd_i_file(path)
+            ok = valid_frames(stack)
+            if not ok.any():
+                continue
+            if frames == "one":
+                chosen = [(-1, combine_frames(stack))]
+            else:
+                chosen = [(int(i), stack[i]) for i in np.nonzero(ok)[0]]
+            for idx, img in chosen:
+                records.append(dict(image=img, posture=posture, detail=detail, subject=subject, source=str(path),
+                                    frame=idx, **info[subject]))
+    if not records:
+        raise BadInput(f"{root}: no S<n>/<posture>.txt files with a recorded body")
+    return make_real(records, get_mat("fsa_softflex_2048"), "raw", "pmd-i")
+
+
+_PMD_II_NAME = re.compile(r"^Matrix_(Sponge|Air)_([A-Za-z]+)(\d+)$")
+
+
+def read_pmd_ii_file(path: str | Path) -> np.ndarray:
+    """One experiment-II image (64, 27) as stored (feet at row 0)."""
+    path = Path(path)
+    rows = [ln.split() for ln in _read_text(path).splitlines() if ln.strip()]
+    if len(rows) != PMD_II_SHAPE[0] or any(len(r) != PMD_II_SHAPE[1] for r in rows):
+        raise BadInput(f"{path}: expected {PMD_II_SHAPE[0]} lines of {PMD_II_SHAPE[1]} space-separated readings, got "
+                       f"{len(rows)} lines of {sorted({len(r) for r in rows})} values")
+    try:
+        return np.array(rows, dtype=np.float64)
+    except ValueError:
+        raise BadInput(f"{path}: not all readings are numbers") from None
+
+
+def read_pmd_ii(root: str | Path) -> RealImages:
+    """PMD experiment II: every ``S<n>/{Sponge,Air}_Mat/Matrix_*.txt``, flipped to the head at row 0."""
+    root = Path(root)
+    info = read_subject_info(root / "subject-info-ii.csv", encoding="utf-16")
+    records = []
+    for subject, folder in _subject_folders(root):
+        if subject not in info:
+            raise BadInput(f"{folder}: subject {subject} is not in {root / 'subject-info-ii.csv'}")
+        for mattress in ("Sponge", "Air"):
+            for path in sorted((folder / f"{mattress}_Mat").glob("Matrix_*.txt")):
+                m = _PMD_II_NAME.match(path.stem)
+                if m is None or m.group(1) != mattress:
+                    raise BadInput(f"{path}: expected a name Matrix_{mattress}_<letter><number>.txt")
+                img = orient(read_pmd_ii_file(path), head_row0=False)
+                letter = m.group(2).upper()
+                records.append(dict(image=img, posture=PMD_II_LETTERS.get(letter, ""),
+                                    detail=f"{mattress.lower()} mattress, {letter}{m.group(3)}", subject=subject,
+                                    source=str(path), frame=-1, **info[subject]))
+    if not records:
+        raise BadInput(f"{root}: no S<n>/{{Sponge,Air}}_Mat/Matrix_*.txt files")
+    return make_real(records, get_mat("boditrak_bt3510"), "raw", "pmd-ii")

@@ -1,0 +1,185 @@
+"""Scoring a PressureNet on real pressure images with known posture, height and weight.
+
+For each image (:class:`pressurepose.data.readers.real.RealImages`) prepared as model input
+(:func:`pressurepose.data.realprep.prepare`): the estimate's posture class against the label
+(:mod:`pressurepose.eval.posture`), its stature and mass against the measured height and weight,
+and the intersection over union of its reconstructed contact map (PMR) with the input's contact
+(taxels above ``contact_mmhg``). Images recorded on an inclined bed are not evaluated; images whose
+raw load is a small fraction of their subject's median (a mat that barely recorded) are counted
+and left out.
+
+Where no gender is recorded (PMD has none) the default estimates each image with both body
+models; every summary then counts each (image, body model) pair once, and ``by_body_model`` splits
+them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.data.readers.real import RealImages
+from pressurepose.data.realprep import prepare
+from pressurepose.errors import BadInput
+from pressurepose.eval.posture import body_stature_mass, confusion, contact_iou, posture_correct, posture_of
+from pressurepose.sim.bed import MatSpec
+
+GENDER_CHOICES = ("f", "m", "both")
+
+
+@dataclass(frozen=True)
+class RealEvalConfig:
+    """gender: body model for images without a recorded gender ('f', 'm' or 'both'); force: use it
+    even where one is recorded. contact_mmhg: input contact threshold. weak_fraction: images whose
+    raw total is below this fraction of their subject's median are left out. batch_size: images
+    per forward pass."""
+
+    gender: str = "both"
+    force_gender: bool = False
+    contact_mmhg: float = 2.0
+    weak_fraction: float = 0.1
+    batch_size: int = 32
+
+    def __post_init__(self):
+        if self.gender not in GENDER_CHOICES:
+            raise BadInput(f"gender {self.gender!r} is not known; expected one of {', '.join(GENDER_CHOICES)}")
+        if not self.contact_mmhg >= 0 or not 0 <= self.weak_fraction < 1:
+            raise BadInput("contact_mmhg must be >= 0 and weak_fraction in [0, 1)")
+
+
+def weak_images(real: RealImages, fraction: float) -> np.ndarray:
+    """(N,) bool: raw total below ``fraction`` of the median total of the same subject's images."""
+    total = real.images.reshape(len(real), -1).sum(1).astype(np.float64)
+    weak = np.zeros(len(real), bool)
+    for s in np.unique(real.subject):
+        sel = real.subject == s
+        weak[sel] = total[sel] < fraction * np.median(total[sel])
+    return weak
+
+
+def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()) -> dict:
+    """Estimates and per-estimate scores: {'rows': {name: (K,) array}, 'estimate': Estimate,
+    'input': (K, R, C) model input, 'summary': :func:`summarise`, 'skipped': {reason: count}}."""
+    from pressurepose.net.infer import estimate
+
+    flat = real.posture != "inclined"
+    weak = weak_images(real, config.weak_fraction) & flat
+    keep = flat & ~weak
+    if not keep.any():
+        raise BadInput("no real image left to evaluate (all inclined-bed or weak recordings)")
+    r = real.select(keep)
+    dst = MatSpec("model", *net.config.grid.shape, net.config.grid.pitch_row_m, net.config.grid.pitch_col_m)
+    x = prepare(r.images, r.mat, r.units, dst, weight_kg=r.weight_kg, gain=r.gain)
+    idx, genders = [], []
+    for i, g in enumerate(r.gender):
+        use = [g] if g and not config.force_gender else (["f", "m"] if config.gender == "both" else [config.gender])
+        idx += [i] * len(use)
+        genders += use
+    idx = np.array(idx)
+    est = estimate(x[idx], genders, model=net, batch_size=config.batch_size)
+    pred = posture_of(est.pose)
+    h, m = body_stature_mass(net, est.betas, genders)
+    rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],
+            "source": r.source[idx], "body_model": np.array(genders), "predicted": pred,
+            "scored": np.isin(r.posture[idx], ("supine", "left", "right", "lateral", "prone")),
+            "correct": posture_correct(r.posture[idx], pred), "stature_m": h, "height_m": r.height_m[idx],
+            "stature_err_m": h - r.height_m[idx], "mass_kg": m, "weight_kg": r.weight_kg[idx],
+            "mass_err_kg": m - r.weight_kg[idx],
+            "contact_iou": contact_iou(est.contact > 0.5, x[idx] > config.contact_mmhg)}
+    return {"rows": rows, "estimate": est, "input": x[idx], "summary": summarise(rows),
+            "skipped": {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())},
+            "n_images": int(keep.sum())}
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float | None:
+    """Pearson correlation, None where it is undefined (fewer than 3 values or no spread)."""
+    if len(a) < 3 or np.std(a) == 0 or np.std(b) == 0:
+        return None
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def _stats(rows: dict, sel: np.ndarray) -> dict:
+    scored = sel & rows["scored"]
+    err_h, err_m = rows["stature_err_m"][sel], rows["mass_err_kg"][sel]
+    return {"n": int(sel.sum()),
+            "posture_accuracy": float(rows["correct"][scored].mean()) if scored.any() else None,
+            "stature_mae_m": float(np.abs(err_h).mean()), "stature_bias_m": float(err_h.mean()),
+            "stature_r": _corr(rows["stature_m"][sel], rows["height_m"][sel]),
+            "mass_mae_kg": float(np.abs(err_m).mean()), "mass_bias_kg": float(err_m.mean()),
+            "contact_iou": float(rows["contact_iou"][sel].mean())}
+
+
+def summarise(rows: dict) -> dict:
+    """Overall scores (stature_r: correlation of estimated stature with measured height), per subject,
+    per posture label, per source posture name, per body model and the posture confusion matrix
+    ({label: {predicted: count}}, scored estimates only)."""
+    n = len(rows["image"])
+    out = _stats(rows, np.ones(n, bool))
+    out["n_estimates"] = out.pop("n")
+    for key, col in (("per_subject", "subject"), ("per_posture", "posture"), ("per_detail", "detail"),
+                     ("by_body_model", "body_model")):
+        vals = rows[col]
+        order = sorted(set(vals.tolist()), key=lambda v: (len(v), v) if col == "subject" else v)
+        out[key] = {str(v): _stats(rows, vals == v) for v in order}
+    sc = rows["scored"]
+    out["confusion"] = confusion(rows["posture"][sc], rows["predicted"][sc])
+    return out
+
+
+def format_real_table(summary: dict, key: str = "per_detail") -> str:
+    """Markdown table of a summary's groups (default the source's posture names)."""
+    def f(v, fmt):
+        return "-" if v is None else format(v, fmt)
+
+    lines = ["| posture | n | posture acc. | stature MAE (cm) | stature bias (cm) | mass MAE (kg) | contact IoU |",
+             "|---|---|---|---|---|---|---|"]
+    groups = list(summary[key].items()) + [("all", {**summary, "n": summary["n_estimates"]})]
+    for name, s in groups:
+        lines.append(f"| {name} | {s['n']} | {f(s['posture_accuracy'], '.2f')} | {100 * s['stature_mae_m']:.1f} | "
+                     f"{100 * s['stature_bias_m']:+.1f} | {s['mass_mae_kg']:.1f} | {s['contact_iou']:.2f} |")
+    return "\n".join(lines)
+
+
+def format_confusion(conf: dict) -> str:
+    """Markdown confusion matrix: rows the labels, columns the predicted classes."""
+    from pressurepose.eval.posture import CLASSES
+
+    lines = ["| label \\ estimate | " + " | ".join(CLASSES) + " |", "|---" * (len(CLASSES) + 1) + "|"]
+    lines += [f"| {t} | " + " | ".join(str(c[k]) for k in CLASSES) + " |" for t, c in conf.items()]
+    return "\n".join(lines)
+
+
+def gallery_figure(result: dict, count: int = 3):
+    """Figure: the ``count`` best and worst estimates by contact IoU, one row each: the model input
+    (mmHg), the reconstructed map Q (PMR) and the estimated body seen from below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    from pressurepose.viz.mesh import draw_mesh
+
+    rows, est, x = result["rows"], result["estimate"], result["input"]
+    order = np.argsort(-rows["contact_iou"], kind="stable")
+    count = min(count, len(order) // 2 or 1)
+    picks = [("best", int(i)) for i in order[:count]] + [("worst", int(i)) for i in order[::-1][:count]]
+    fig, axes = plt.subplots(len(picks), 3, figsize=(9, 4.2 * len(picks)), squeeze=False)
+    w, length = est.grid.size_m
+    for (kind, i), ax in zip(picks, axes):
+        ax[0].imshow(x[i], cmap="magma", interpolation="nearest", vmin=0, vmax=max(float(x[i].max()), 1e-6))
+        ax[0].set_title(f"{kind}: S{rows['subject'][i]} {rows['detail'][i]}\ninput (mmHg)", fontsize=9)
+        ax[1].imshow(est.q[i], cmap="magma", interpolation="nearest")
+        ax[1].set_title(f"reconstructed map Q, IoU {rows['contact_iou'][i]:.2f}", fontsize=9)
+        for a in ax[:2]:
+            a.set_xticks([])
+            a.set_yticks([])
+        ax[2].add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5"))
+        draw_mesh(ax[2], est.vertices[i], est.faces, view="below")
+        ax[2].set_title(f"estimate ({rows['body_model'][i]}): {rows['predicted'][i]}, label {rows['posture'][i]}\n"
+                        f"stature {rows['stature_m'][i]:.2f} m (true {rows['height_m'][i]:.2f})", fontsize=9)
+        ax[2].set_xticks([])
+        ax[2].set_yticks([])
+    fig.tight_layout()
+    return fig

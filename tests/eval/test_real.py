@@ -1,0 +1,119 @@
+"""Real-image evaluation: posture class of estimated bodies, stature and mass, contact IoU, and the
+`evaluate-real` verb end to end on a labelled folder the test writes."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pressurepose.body import BodyModel
+from pressurepose.body.joints import JOINT_NAMES
+from pressurepose.body.toy import toy_body_arrays
+from pressurepose.eval import posture as ps
+from pressurepose.pose.root import root_axis_angle, world_rotation
+
+TOY = BodyModel(toy_body_arrays())
+
+
+def _poses(rolls, yaw=0.3):
+    pose = np.zeros((len(rolls), 72))
+    pose[:, :3] = root_axis_angle(world_rotation(np.asarray(rolls), np.full(len(rolls), yaw)))
+    return pose
+
+
+def test_posture_class_from_known_roll_and_the_side_it_lies_on():
+    deg = np.deg2rad([0, 30, -30, 90, 60, -90, -60, 180, -170])
+    assert ps.posture_of(_poses(deg)).tolist() == ["supine", "supine", "supine", "left", "left", "right", "right",
+                                                   "prone", "prone"]
+    # 'left' means lying on the left side: the left shoulder is the lower one
+    _, joints = TOY.forward(np.zeros((2, 10)), _poses(np.deg2rad([90, -90])))
+    l, r = JOINT_NAMES.index("left_shoulder"), JOINT_NAMES.index("right_shoulder")
+    assert joints[0, l, 2] < joints[0, r, 2] and joints[1, r, 2] < joints[1, l, 2]
+    correct = ps.posture_correct(["lateral", "lateral", "left", "supine"], ["left", "right", "right", "supine"])
+    assert correct.tolist() == [True, True, False, True]
+    conf = ps.confusion(["left", "left", "supine"], ["supine", "left", "supine"])
+    assert conf == {"left": {"supine": 1, "left": 1, "right": 0, "prone": 0},
+                    "supine": {"supine": 1, "left": 0, "right": 0, "prone": 0}}
+
+
+def test_stature_and_mass_of_the_zero_pose_body_match_the_body_model():
+    betas = np.array([[0.0] * 10, [1.5] + [0.0] * 9, [-1.5, 0.5] + [0.0] * 8])
+    layer = TOY.torch_layer()
+    v = ps.zero_pose_vertices(layer, betas)
+    np.testing.assert_allclose(ps.stature(v), TOY.height(betas), rtol=1e-5)
+    np.testing.assert_allclose(ps.mass(v, TOY.faces), TOY.mass(betas), rtol=1e-4)
+    # a box 2 m tall: stature 2, volume 0.5 x 0.25 x 2 = 0.25 m^3 -> 250 kg
+    import trimesh
+
+    box = trimesh.creation.box(extents=(0.5, 0.25, 2.0))
+    assert ps.stature(box.vertices[None])[0] == pytest.approx(2.0)
+    assert ps.mass(box.vertices[None], box.faces)[0] == pytest.approx(250.0)
+
+
+def test_contact_iou():
+    a = np.zeros((2, 4, 4), bool)
+    b = np.zeros((2, 4, 4), bool)
+    a[0, :2], b[0, 1:3] = True, True  # 4 shared of 12
+    np.testing.assert_allclose(ps.contact_iou(a, b), [1 / 3, 1.0])
+
+
+def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
+    from pressurepose.cli import main
+    from pressurepose.net.infer import DEFAULT_MODEL
+    from tests.data.realfolders import body_image, write_labelled
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    imgs = np.stack([body_image(64, 27, seed=i, scale=20) for i in range(4)])
+    folder = write_labelled(tmp_path / "lab", imgs, ["supine", "lateral", "supine", "left"],
+                            {"preset": "boditrak_bt3510", "units": "mmHg"}, heights=[1.6, 1.7, 1.8, 1.9],
+                            weights=[60, 70, 80, 90], genders=["f", "m", "f", "m"])
+    out = tmp_path / "out"
+    assert main(["evaluate-real", str(folder), "--out", str(out)]) == 0
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["n_images"] == 4 and m["n_estimates"] == 4 and m["layout"] == "labelled"
+    rows = json.loads((out / "estimates.json").read_text())["rows"]
+    acc = np.mean([r["correct"] for r in rows])
+    assert m["posture_accuracy"] == pytest.approx(acc)
+    assert m["stature_mae_m"] == pytest.approx(np.mean([abs(r["stature_m"] - r["height_m"]) for r in rows]))
+    assert [r["body_model"] for r in rows] == ["f", "m", "f", "m"]
+    assert set(m["per_subject"]) == {"s0", "s1"}
+    assert sum(c for row in m["confusion"].values() for c in row.values()) == 4
+    assert 0 <= m["contact_iou"] <= 1 and (out / "gallery.png").stat().st_size > 0
+    assert "| supine |" in (out / "report.md").read_text()
+    # without a gender both body models estimate each image
+    folder2 = write_labelled(tmp_path / "lab2", imgs[:2], ["supine", "right"], {"preset": "boditrak_bt3510",
+                                                                                 "units": "mmHg"})
+    assert main(["evaluate-real", str(folder2), "--out", str(tmp_path / "out2")]) == 0
+    m2 = json.loads((tmp_path / "out2" / "metrics.json").read_text())
+    assert m2["n_images"] == 2 and m2["n_estimates"] == 4 and set(m2["by_body_model"]) == {"f", "m"}
+
+
+def test_evaluate_real_bad_inputs(tmp_path, capsys):
+    from pressurepose.cli import main
+
+    (tmp_path / "empty").mkdir()
+    assert main(["evaluate-real", str(tmp_path / "empty"), "--out", str(tmp_path / "o")]) == 2
+    assert "neither a PMD experiment folder" in capsys.readouterr().err
+    (tmp_path / "file").write_text("x")
+    assert main(["evaluate-real", str(tmp_path / "empty"), "--out", str(tmp_path / "file")]) == 2
+    assert "is a file" in capsys.readouterr().err
+
+
+def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.data.resample import MMHG_PA
+    from pressurepose.eval.real import RealEvalConfig, evaluate_real
+    from pressurepose.net.infer import DEFAULT_MODEL, resolve_model
+    from tests.data.realfolders import body_image, write_labelled
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    imgs = np.stack([body_image(64, 27, seed=i, scale=400) for i in range(2)])
+    folder = write_labelled(tmp_path / "raw", imgs, ["supine", "right"], {"preset": "boditrak_bt3510", "units": "raw"},
+                            weights=[60, 90], genders=["f", "m"])
+    real = read_real(folder)
+    res = evaluate_real(real, resolve_model(None), RealEvalConfig())
+    force = res["input"].sum((1, 2)) * MMHG_PA * 0.0286 ** 2
+    np.testing.assert_allclose(force, np.array([60, 90]) * 9.80665, rtol=1e-4)
+    assert res["summary"]["n_estimates"] == 2 and res["skipped"] == {"inclined_bed": 0, "weak_recording": 0}
