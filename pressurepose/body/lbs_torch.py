@@ -52,6 +52,25 @@ def batch_rodrigues(axis_angle: torch.Tensor) -> torch.Tensor:
     return eye + a[..., None] * K + b[..., None] * (K @ K)
 
 
+def _tree_levels(parents: list[int]) -> tuple[list[tuple[list[int], list[int]]], list[int] | None]:
+    """The kinematic tree (root 0, parents[j] < j not required) by depth: per level below the
+    root, (joints, positions of their parents among the joints of the levels above), and the
+    permutation from that level order back to joint order (None when it is the identity)."""
+    depth = [0] * len(parents)
+    for j in range(1, len(parents)):
+        d, p = 1, parents[j]
+        while p != 0:
+            d, p = d + 1, parents[p]
+        depth[j] = d
+    done, levels = [0], []
+    for d in range(1, max(depth, default=0) + 1):
+        joints = [j for j in range(len(parents)) if depth[j] == d]
+        levels.append((joints, [done.index(parents[j]) for j in joints]))
+        done += joints
+    order = [done.index(j) for j in range(len(parents))]
+    return levels, None if order == list(range(len(parents))) else order
+
+
 class BodyLayer(nn.Module):
     """Differentiable SMPL-format body model. Build with ``BodyModel(...).torch_layer()``.
 
@@ -69,10 +88,17 @@ class BodyLayer(nn.Module):
 
         buf("v_template", arrays.v_template)
         buf("shapedirs", arrays.shapedirs)
-        buf("posedirs", arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T)  # (P, V*3)
+        # (P, V*3) row-major: a transposed view makes the pose blend product ~3x slower
+        buf("posedirs", np.ascontiguousarray(arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T))
         buf("J_regressor", arrays.J_regressor)
         buf("weights", arrays.weights)
         buf("y_up_to_z_up", Y_UP_TO_Z_UP)
+        # the rest joints are linear in betas: J = J_template + J_shapedirs . betas (precomputed in
+        # float64), which spares a (J, V) x (V, 3) product per pose
+        jreg = np.asarray(arrays.J_regressor, dtype=np.float64)
+        buf("J_template", jreg @ np.asarray(arrays.v_template, dtype=np.float64))
+        buf("J_shapedirs", np.einsum("jv,vcs->jcs", jreg, np.asarray(arrays.shapedirs, dtype=np.float64)))
+        self._levels, self._order = _tree_levels(self.parents)
         self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
@@ -97,7 +123,7 @@ class BodyLayer(nn.Module):
 
         s = betas.shape[-1]
         v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :s], betas)
-        J = torch.einsum("jv,bvc->bjc", self.J_regressor, v_shaped)
+        J = self.J_template + torch.einsum("jcs,bs->bjc", self.J_shapedirs[..., :s], betas)
         pose = torch.cat([global_orient, body_pose], dim=-1).reshape(bsz, n_j, 3)
         rot = batch_rodrigues(pose)
         eye = torch.eye(3, dtype=dt, device=dev)
@@ -105,22 +131,21 @@ class BodyLayer(nn.Module):
         v_posed = v_shaped + (pose_feature @ self.posedirs).reshape(bsz, -1, 3)
 
         rel = torch.cat([J[:, :1], J[:, 1:] - J[:, self.parents[1:]]], dim=1)
-        world_R = [rot[:, 0]]
-        world_t = [rel[:, 0]]
-        for j in range(1, n_j):
-            p = self.parents[j]
-            world_R.append(world_R[p] @ rot[:, j])
-            world_t.append(world_t[p] + (world_R[p] @ rel[:, j, :, None])[..., 0])
-        Rw = torch.stack(world_R, 1)  # (B, J, 3, 3)
-        tw = torch.stack(world_t, 1)  # (B, J, 3)
-        t_skin = tw - (Rw @ J[..., None])[..., 0]
-        T_R = torch.einsum("vj,bjcd->bvcd", self.weights, Rw)
-        T_t = torch.einsum("vj,bjc->bvc", self.weights, t_skin)
-        verts = (T_R @ v_posed[..., None])[..., 0] + T_t
+        # down the kinematic tree a level at a time (all joints of one depth in one product)
+        Rw, tw = rot[:, :1], rel[:, :1]  # (B, k, 3, 3), (B, k, 3): the joints done so far
+        for joints, parents in self._levels:
+            Rp = Rw[:, parents]
+            tw = torch.cat([tw, tw[:, parents] + (Rp @ rel[:, joints, :, None])[..., 0]], 1)
+            Rw = torch.cat([Rw, Rp @ rot[:, joints]], 1)
+        if self._order is not None:  # back to joint order
+            Rw, tw = Rw[:, self._order], tw[:, self._order]
         Q = self.y_up_to_z_up
-        verts = verts @ Q.T
-        joints = tw @ Q.T
         Rw = Q @ Rw
+        t_skin = tw @ Q.T - (Rw @ J[..., None])[..., 0]
+        # blend the joints' (z-up) transforms [R | t] with the skinning weights in one product
+        T = (self.weights @ torch.cat([Rw.reshape(bsz, n_j, 9), t_skin], -1))  # (B, V, 12)
+        verts = torch.einsum("bvcd,bvd->bvc", T[..., :9].reshape(bsz, -1, 3, 3), v_posed) + T[..., 9:]
+        joints = tw @ Q.T
         if transl is not None:
             verts = verts + transl.to(dt)[:, None]
             joints = joints + transl.to(dt)[:, None]

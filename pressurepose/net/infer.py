@@ -220,11 +220,12 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
     return _cached_model(str(path.resolve()), path.stat().st_mtime, None if bodies is None else tuple(map(str, bodies)))
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64):
     """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch."""
     device = next(net.parameters()).device
-    net.eval()
+    if net.training:
+        net.eval()
     g = torch.tensor([GENDER_CODES[x] for x in genders], dtype=torch.long)
     results = []
     for s in range(0, len(pressure), batch_size):
