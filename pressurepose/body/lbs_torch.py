@@ -103,8 +103,11 @@ class BodyLayer(nn.Module):
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
                 global_orient: torch.Tensor | None = None, transl: torch.Tensor | None = None,
-                ) -> BodyOutput:
-        """Pose the body. Any argument may be None (zeros); batch size from the first given."""
+                vertices: bool = True) -> BodyOutput:
+        """Pose the body. Any argument may be None (zeros); batch size from the first given.
+
+        vertices: False skips the mesh (the output's vertices are None); the joints need only the
+        skeleton, a small part of the work."""
         ref = next((t for t in (betas, body_pose, global_orient, transl) if t is not None), None)
         bsz = 1 if ref is None else ref.shape[0]
         dt, dev = self.v_template.dtype, self.v_template.device
@@ -122,31 +125,38 @@ class BodyLayer(nn.Module):
             raise ValueError(f"body_pose has {body_pose.shape[-1]} values; expected {3 * (n_j - 1)}")
 
         s = betas.shape[-1]
-        v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :s], betas)
         J = self.J_template + torch.einsum("jcs,bs->bjc", self.J_shapedirs[..., :s], betas)
         pose = torch.cat([global_orient, body_pose], dim=-1).reshape(bsz, n_j, 3)
         rot = batch_rodrigues(pose)
-        eye = torch.eye(3, dtype=dt, device=dev)
-        pose_feature = (rot[:, 1:] - eye).reshape(bsz, -1)
-        v_posed = v_shaped + (pose_feature @ self.posedirs).reshape(bsz, -1, 3)
 
         rel = torch.cat([J[:, :1], J[:, 1:] - J[:, self.parents[1:]]], dim=1)
         # down the kinematic tree a level at a time (all joints of one depth in one product)
         Rw, tw = rot[:, :1], rel[:, :1]  # (B, k, 3, 3), (B, k, 3): the joints done so far
-        for joints, parents in self._levels:
-            Rp = Rw[:, parents]
-            tw = torch.cat([tw, tw[:, parents] + (Rp @ rel[:, joints, :, None])[..., 0]], 1)
-            Rw = torch.cat([Rw, Rp @ rot[:, joints]], 1)
+        for level, up in self._levels:
+            Rp = Rw[:, up]
+            tw = torch.cat([tw, tw[:, up] + (Rp @ rel[:, level, :, None])[..., 0]], 1)
+            Rw = torch.cat([Rw, Rp @ rot[:, level]], 1)
         if self._order is not None:  # back to joint order
             Rw, tw = Rw[:, self._order], tw[:, self._order]
         Q = self.y_up_to_z_up
         Rw = Q @ Rw
-        t_skin = tw @ Q.T - (Rw @ J[..., None])[..., 0]
-        # blend the joints' (z-up) transforms [R | t] with the skinning weights in one product
-        T = (self.weights @ torch.cat([Rw.reshape(bsz, n_j, 9), t_skin], -1))  # (B, V, 12)
-        verts = torch.einsum("bvcd,bvd->bvc", T[..., :9].reshape(bsz, -1, 3, 3), v_posed) + T[..., 9:]
         joints = tw @ Q.T
+        verts = self._skin(betas, rot, J, Rw, joints) if vertices else None
         if transl is not None:
-            verts = verts + transl.to(dt)[:, None]
-            joints = joints + transl.to(dt)[:, None]
+            t = transl.to(dt)[:, None]
+            joints = joints + t
+            verts = None if verts is None else verts + t
         return BodyOutput(vertices=verts, joints=joints, rotations=Rw)
+
+    def _skin(self, betas, rot, J, Rw, joints) -> torch.Tensor:
+        """Vertices (B, V, 3), z-up, before the translation: shape and pose blend shapes, then
+        linear blend skinning with the joints' world rotations Rw (z-up) at ``joints``."""
+        bsz, n_j = rot.shape[:2]
+        v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :betas.shape[-1]], betas)
+        eye = torch.eye(3, dtype=rot.dtype, device=rot.device)
+        pose_feature = (rot[:, 1:] - eye).reshape(bsz, -1)
+        v_posed = v_shaped + (pose_feature @ self.posedirs).reshape(bsz, -1, 3)
+        t_skin = joints - (Rw @ J[..., None])[..., 0]
+        # blend the joints' transforms [R | t] with the skinning weights in one product
+        T = self.weights @ torch.cat([Rw.reshape(bsz, n_j, 9), t_skin], -1)  # (B, V, 12)
+        return torch.einsum("bvcd,bvd->bvc", T[..., :9].reshape(bsz, -1, 3, 3), v_posed) + T[..., 9:]
