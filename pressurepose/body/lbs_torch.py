@@ -52,23 +52,27 @@ def batch_rodrigues(axis_angle: torch.Tensor) -> torch.Tensor:
     return eye + a[..., None] * K + b[..., None] * (K @ K)
 
 
-def _tree_levels(parents: list[int]) -> tuple[list[tuple[list[int], list[int]]], list[int] | None]:
-    """The kinematic tree (root 0, parents[j] < j not required) by depth: per level below the
-    root, (joints, positions of their parents among the joints of the levels above), and the
-    permutation from that level order back to joint order (None when it is the identity)."""
+def _tree_levels(parents: list[int]) -> dict:
+    """The kinematic tree (root 0) ordered by depth, for posing it a level at a time: ``order``
+    (the joints, root first, then each level's), ``levels`` ((start, stop) of each level below the
+    root in that order), ``up`` (each joint's parent's position in that order; the root's 0) and
+    ``back`` (the permutation from that order to joint order; None when it is the identity, as for
+    SMPL)."""
     depth = [0] * len(parents)
     for j in range(1, len(parents)):
         d, p = 1, parents[j]
         while p != 0:
             d, p = d + 1, parents[p]
         depth[j] = d
-    done, levels = [0], []
+    order, levels = [0], []
     for d in range(1, max(depth, default=0) + 1):
         joints = [j for j in range(len(parents)) if depth[j] == d]
-        levels.append((joints, [done.index(parents[j]) for j in joints]))
-        done += joints
-    order = [done.index(j) for j in range(len(parents))]
-    return levels, None if order == list(range(len(parents))) else order
+        levels.append((len(order), len(order) + len(joints)))
+        order += joints
+    up = [0] + [order.index(parents[j]) for j in order[1:]]
+    back = [order.index(j) for j in range(len(parents))]
+    identity = order == list(range(len(parents)))
+    return {"order": None if identity else order, "levels": levels, "up": up, "back": None if identity else back}
 
 
 class BodyLayer(nn.Module):
@@ -98,7 +102,8 @@ class BodyLayer(nn.Module):
         jreg = np.asarray(arrays.J_regressor, dtype=np.float64)
         buf("J_template", jreg @ np.asarray(arrays.v_template, dtype=np.float64))
         buf("J_shapedirs", np.einsum("jv,vcs->jcs", jreg, np.asarray(arrays.shapedirs, dtype=np.float64)))
-        self._levels, self._order = _tree_levels(self.parents)
+        self._tree = _tree_levels(self.parents)
+        self._tree_index: dict = {}  # the tree's index tensors per device
         self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
@@ -129,15 +134,7 @@ class BodyLayer(nn.Module):
         pose = torch.cat([global_orient, body_pose], dim=-1).reshape(bsz, n_j, 3)
         rot = batch_rodrigues(pose)
 
-        rel = torch.cat([J[:, :1], J[:, 1:] - J[:, self.parents[1:]]], dim=1)
-        # down the kinematic tree a level at a time (all joints of one depth in one product)
-        Rw, tw = rot[:, :1], rel[:, :1]  # (B, k, 3, 3), (B, k, 3): the joints done so far
-        for level, up in self._levels:
-            Rp = Rw[:, up]
-            tw = torch.cat([tw, tw[:, up] + (Rp @ rel[:, level, :, None])[..., 0]], 1)
-            Rw = torch.cat([Rw, Rp @ rot[:, level]], 1)
-        if self._order is not None:  # back to joint order
-            Rw, tw = Rw[:, self._order], tw[:, self._order]
+        Rw, tw = self._kinematic_tree(rot, J)
         Q = self.y_up_to_z_up
         Rw = Q @ Rw
         joints = tw @ Q.T
@@ -147,6 +144,32 @@ class BodyLayer(nn.Module):
             joints = joints + t
             verts = None if verts is None else verts + t
         return BodyOutput(vertices=verts, joints=joints, rotations=Rw)
+
+    def _tree_tensors(self, device) -> dict:
+        idx = self._tree_index.get(device)
+        if idx is None:
+            idx = {k: None if v is None else torch.tensor(v, dtype=torch.long, device=device)
+                   for k, v in self._tree.items() if k != "levels"}
+            self._tree_index[device] = idx
+        return idx
+
+    def _kinematic_tree(self, rot: torch.Tensor, J: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """World rotations (B, J, 3, 3) and positions (B, J, 3) of the joints (y-up) from their
+        local rotations rot (B, J, 3, 3) and rest positions J (B, J, 3): down the tree a level at a
+        time (all joints of one depth in one product)."""
+        idx = self._tree_tensors(rot.device)
+        if idx["order"] is not None:
+            rot, J = rot.index_select(1, idx["order"]), J.index_select(1, idx["order"])
+        rel = torch.cat([J[:, :1], J[:, 1:] - J.index_select(1, idx["up"][1:])], 1)  # each from its parent
+        Rw, tw = rot[:, :1], rel[:, :1]  # the joints done so far
+        for start, stop in self._tree["levels"]:
+            up = idx["up"][start:stop]
+            Rp = Rw.index_select(1, up)
+            tw = torch.cat([tw, tw.index_select(1, up) + (Rp @ rel[:, start:stop, :, None])[..., 0]], 1)
+            Rw = torch.cat([Rw, Rp @ rot[:, start:stop]], 1)
+        if idx["back"] is not None:
+            Rw, tw = Rw.index_select(1, idx["back"]), tw.index_select(1, idx["back"])
+        return Rw, tw
 
     def _skin(self, betas, rot, J, Rw, joints) -> torch.Tensor:
         """Vertices (B, V, 3), z-up, before the translation: shape and pose blend shapes, then

@@ -248,7 +248,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     parts = run_network(net, arr, genders, batch_size)
 
     def cat(fn):
-        return torch.cat([fn(o1, o2).float().cpu() for o1, o2 in parts]).numpy()
+        items = [fn(o1, o2) for o1, o2 in parts]
+        return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),

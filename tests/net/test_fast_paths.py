@@ -116,3 +116,25 @@ def test_body_layer_gradients_are_those_of_its_numbers():
         return out.vertices[:, ::7], out.joints
 
     assert torch.autograd.gradcheck(f, (betas, pose, orient, transl))
+
+
+def test_kinematic_tree_by_levels_equals_the_joint_by_joint_chain():
+    from types import SimpleNamespace
+
+    from pressurepose.body.lbs_torch import BodyLayer, _tree_levels
+
+    parents = [-1, 0, 1, 0, 2, 3, 1]  # joint 3's level comes before joint 2's children: reordered
+    tree = SimpleNamespace(_tree=_tree_levels(parents), _tree_index={})
+    assert tree._tree["order"] is not None and tree._tree["back"] is not None
+    tree._tree_tensors = lambda device: BodyLayer._tree_tensors(tree, device)
+    g = torch.Generator().manual_seed(3)
+    rot = batch_rodrigues(torch.randn(2, 7, 3, generator=g, dtype=torch.float64))
+    J = torch.randn(2, 7, 3, generator=g, dtype=torch.float64)
+    Rw, tw = BodyLayer._kinematic_tree(tree, rot, J)
+    R_ref, t_ref = [rot[:, 0]], [J[:, 0]]
+    for j in range(1, 7):
+        p = parents[j]
+        R_ref.append(R_ref[p] @ rot[:, j])
+        t_ref.append(t_ref[p] + (R_ref[p] @ (J[:, j] - J[:, p])[..., None])[..., 0])
+    torch.testing.assert_close(Rw, torch.stack(R_ref, 1), atol=1e-12, rtol=0)
+    torch.testing.assert_close(tw, torch.stack(t_ref, 1), atol=1e-12, rtol=0)
