@@ -132,10 +132,15 @@ def bench_parts(net: PressureNet, frames: int) -> dict[str, tuple[float, float]]
 
 
 def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu", amp: bool = False,
-                   ) -> dict[str, tuple[float, float]]:
+                   compile_cnns: bool = False) -> dict[str, tuple[float, float]]:
     """{module: (images per CPU-second, images per wall-second)} of training steps as
-    :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2)."""
+    :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2).
+    compile_cnns: the CNNs through ``torch.compile`` (measured only; training does not use it)."""
     from pressurepose.net.train import TrainConfig, _forward
+
+    if compile_cnns:
+        for m in (net.mod1, net.mod2):
+            m.cnn = torch.compile(m.cnn)
 
     p = fake_pressure(batch).to(device)
     g = (torch.arange(batch) % 2).to(device)
@@ -204,6 +209,8 @@ def main(argv=None) -> int:
     p.add_argument("--model", default=None, help="trained model for the accuracy table")
     p.add_argument("--data", default=None, help="test dataset for the accuracy table")
     p.add_argument("--limit", type=int, default=None, help="test samples to use (default all)")
+    p.add_argument("--compile", action="store_true", help="also time training with the CNNs under torch.compile "
+                                                         "(compiles for a minute or more)")
     p.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = p.parse_args(argv)
 
@@ -216,6 +223,9 @@ def main(argv=None) -> int:
         parts = bench_parts(resolve_model(model), args.frames)
     train_cpu = {label: bench_training(make_net(female, male, cnn=cnn), args.train_batch, args.train_steps, amp=amp)
                  for label, cnn, amp in TRAIN_OPTIONS}
+    if args.compile:
+        train_cpu["paper CNN, float32, torch.compile"] = bench_training(
+            make_net(female, male), args.train_batch, args.train_steps, compile_cnns=True)
     train_gpu = None
     if torch.cuda.is_available():
         train_gpu = bench_training(make_net(female, male, "cuda"), 128, 10, device="cuda", amp=True)
@@ -262,9 +272,13 @@ def main(argv=None) -> int:
           f"{v['Mod2 (L2)'][0]:.1f} | {v['Mod2 (L2)'][0] / base['Mod2 (L2)'][0]:.1f} | {v['Mod1 (L1)'][1]:.1f} |"
           for k, v in train_cpu.items()],
     ]
+    if args.compile:
+        lines += ["", "torch.compile row: both CNNs compiled by inductor (C++ made by the local gcc, offline); "
+                      "the timed steps follow two warm-up steps, so compiling is not in the figures."]
     if train_gpu:
         lines += ["", f"Training, GPU ({torch.cuda.get_device_name()}), batch 128, mixed precision:", "",
-                  "| module | images/s (wall) |", "|---|---|", *[f"| {k} | {w:.1f} |" for k, (_, w) in train_gpu.items()]]
+                  "| module | images/s (wall) |", "|---|---|",
+                  *[f"| {k} | {w:.1f} |" for k, (_, w) in train_gpu.items()]]
     else:
         lines += ["", "No CUDA GPU on this machine: GPU training speed not measured."]
     if args.model and args.data:
