@@ -94,3 +94,15 @@ def test_runs_saved_before_the_options_existed_still_resume(tmp_path):
     with pytest.raises(BadInput, match="different config"):  # another CNN is another run
         train(data, tmp_path, TrainConfig(epochs_mod1=3, epochs_mod2=0, batch_size=4, lr=1e-4, cnn="half"),
               bodies=(body, body), grid=GRID)
+
+
+def test_options_train_deterministically(tmp_path):
+    data = toy_dataset(4, seed=8, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=1, batch_size=2, lr=1e-3, cnn="quarter", cpu_amp=True)
+    a = train(data, tmp_path / "a", cfg, bodies=(body, body), grid=GRID)
+    b = train(data, tmp_path / "b", cfg, bodies=(body, body), grid=GRID)
+    assert [r["train_loss"] for r in a.history] == [r["train_loss"] for r in b.history]
+    for (k, va), (_, vb) in zip(load_model(a.model_path)[0].state_dict().items(),
+                                load_model(b.model_path)[0].state_dict().items()):
+        assert torch.equal(va, vb), k
