@@ -3,13 +3,17 @@
     .venv/bin/python -m benchmarks.bench_net [--frames 40] [--train-batch 32] [--no-write]
     .venv/bin/python -m benchmarks.bench_net --model RUN/model.safetensors --data TEST_DIR   # + accuracy
 
-Measures, on the BodiTrak 64 x 27 mat (network input 128 x 54) with the shipped bodies (the toy body
-when they are missing):
+Measures, on the BodiTrak 64 x 27 mat (network input 128 x 54), all on one CPU thread and by CPU
+time (``time.process_time``: on a machine shared with other jobs the wall time measures their load,
+the CPU time what the work costs on a free core):
 
-* inference frames/s at batch 1 on one CPU core, Mod1 + Mod2 end to end (input transform, both
-  CNNs, both body layers, both PMRs), with a breakdown;
-* training images/s on the CPU (one optimiser step of Mod1 with L1, and of Mod2 with L2 with Mod1
-  run frozen), and on a CUDA GPU with mixed precision when there is one;
+* inference as a user calls it: ``estimate(image, "f")`` on one image, repeatedly (the shipped
+  model, loaded once and cached; a random network with the shipped bodies when there is none),
+  the same on batches, and a breakdown of one call into its parts;
+* training images per CPU-second with the training loop's own steps (noise, input transform,
+  forward, loss, backward, Adam) for Mod1 (L1) and Mod2 (L2, Mod1 frozen), for each speed option:
+  the paper's CNN and the lighter variants, float32 and bfloat16 autocast (``cpu_amp``); and on a
+  CUDA GPU with mixed precision when there is one;
 * with --model and --data: the accuracy table (MPJPE, v2v; PressureNet, Mod1, mean-pose baseline)
   via :func:`accuracy_section`.
 
@@ -23,14 +27,16 @@ import datetime
 import os
 import platform
 import statistics
+import tempfile
 import time
 
 import torch
 
 from pressurepose.body.model import BodyModel, asset_path
 from pressurepose.body.toy import toy_body_arrays
-from pressurepose.net.checkpoint import gendered_body
-from pressurepose.net.cnn import flattened_size
+from pressurepose.net.checkpoint import gendered_body, save_model
+from pressurepose.net.cnn import CNN_VARIANTS, flattened_size
+from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
 from pressurepose.net.losses import LossScales, loss_l1, loss_l2
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
@@ -38,6 +44,10 @@ from pressurepose.net.pmr import MatGrid, pmr
 from benchmarks.results import write_section
 
 GRID = MatGrid(64, 27, 0.0286, 0.0286)
+# (label, cnn variant, bf16 autocast) of the training options measured
+TRAIN_OPTIONS = (("paper CNN, float32 (default)", "paper", False), ("paper CNN, bf16 autocast", "paper", True),
+                 ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True),
+                 ("quarter CNN, float32", "quarter", False), ("quarter CNN, bf16 autocast", "quarter", True))
 
 
 def bodies() -> tuple[BodyModel, BodyModel, str]:
@@ -47,10 +57,11 @@ def bodies() -> tuple[BodyModel, BodyModel, str]:
     return toy, toy, "toy body (shipped bodies missing)"
 
 
-def make_net(female, male, device="cpu") -> PressureNet:
+def make_net(female, male, device="cpu", cnn: str = "paper") -> PressureNet:
     torch.manual_seed(0)
     w, length = GRID.size_m
-    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((w / 2, length / 2, 0.25), (0.4, 0.4, 0.1)))
+    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((w / 2, length / 2, 0.25), (0.4, 0.4, 0.1)),
+                    cnn_channels=CNN_VARIANTS[cnn])
     net = PressureNet(cfg, gendered_body(female, male)).to(device)
     torch.nn.init.normal_(net.mod2.cnn.fc.weight, std=1e-4)  # a trained-like Mod2, not the zero init
     return net
@@ -66,71 +77,104 @@ def fake_pressure(batch: int, seed: int = 0) -> torch.Tensor:
 
 
 def timed(fn, n: int) -> tuple[float, float]:
-    """Median wall time and median CPU time of this thread (s) of ``n`` calls after two warm-ups.
-
-    On a shared machine the wall time includes waiting for a core; with one torch thread the
-    thread's CPU time is what the work costs on a free core."""
+    """Median CPU time of this process and median wall time (s) of ``n`` calls after two
+    warm-ups (with one torch thread the process's CPU time is the cost on a free core)."""
     fn()
     fn()
     wall, cpu = [], []
     for _ in range(n):
-        t0, c0 = time.perf_counter(), time.thread_time()
+        t0, c0 = time.perf_counter(), time.process_time()
         fn()
         wall.append(time.perf_counter() - t0)
-        cpu.append(time.thread_time() - c0)
-    return statistics.median(wall), statistics.median(cpu)
+        cpu.append(time.process_time() - c0)
+    return statistics.median(cpu), statistics.median(wall)
 
 
-@torch.no_grad()
-def bench_inference(net: PressureNet, frames: int) -> dict[str, tuple[float, float]]:
+def user_model(female, male, tmp: str):
+    """What ``estimate(image, "f")`` uses: the shipped model (None), or a saved random network."""
+    if DEFAULT_MODEL.is_file():
+        return None, "the shipped model"
+    path = save_model(os.path.join(tmp, "model.safetensors"), make_net(female, male), (female, male))
+    return str(path), "a random network (no shipped model)"
+
+
+def bench_estimate(model, frames: int, batches=(8, 64)) -> dict[str, tuple[float, float, int]]:
+    """{label: (CPU s, wall s, images)} per call of ``estimate`` as a user calls it."""
+    image = fake_pressure(1)[0].numpy()
+    res = {"one image, estimate(image, 'f')": (*timed(lambda: estimate(image, "f", model=model), frames), 1)}
+    for b in batches:
+        imgs = fake_pressure(b, seed=1).numpy()
+        genders = ["f", "m"] * (b // 2) + ["f"] * (b % 2)
+        res[f"batch of {b} (both genders)"] = (*timed(lambda: estimate(imgs, genders, model=model),
+                                                       max(3, frames // b)), b)
+    return res
+
+
+@torch.inference_mode()
+def bench_parts(net: PressureNet, frames: int) -> dict[str, tuple[float, float]]:
+    """CPU and wall time of the parts of one call at batch 1 (each part repeated on its own, so
+    with warm caches: their sum is below the whole call's)."""
     net.eval()
     p = fake_pressure(1)
     g = torch.zeros(1, dtype=torch.long)
     x1 = net.inputs(p)
     out1 = net.run_mod1(x1, g)
     x2 = net.mod2_input(x1, out1)
-    res = {
-        "end to end (Mod1 + Mod2)": timed(lambda: net(p, g), frames),
+    raw = net.mod1.cnn(x1, g)
+    return {
         "input transform": timed(lambda: net.inputs(p), frames),
         "Mod1 CNN": timed(lambda: net.mod1.cnn(x1, g), frames),
         "Mod2 CNN": timed(lambda: net.mod2.cnn(x2, g), frames),
-        "body layer": timed(lambda: net.body(out1.params, g), frames),
-        "PMR": timed(lambda: pmr(out1.vertices, GRID), frames),
+        "output layer (one module)": timed(lambda: net.mod1.outputs(raw), frames),
+        "body layer (one module)": timed(lambda: net.body(out1.params, g), frames),
+        "PMR (one module)": timed(lambda: pmr(out1.vertices, GRID), frames),
     }
-    return res
 
 
-def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu", amp: bool = False) -> dict[str, float]:
+def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu", amp: bool = False,
+                   compile_cnns: bool = False) -> dict[str, tuple[float, float]]:
+    """{module: (images per CPU-second, images per wall-second)} of training steps as
+    :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2).
+    compile_cnns: the CNNs through ``torch.compile`` (measured only; training does not use it)."""
+    from pressurepose.net.train import TrainConfig, _forward
+
+    if compile_cnns:
+        for m in (net.mod1, net.mod2):
+            m.cnn = torch.compile(m.cnn)
+
     p = fake_pressure(batch).to(device)
     g = (torch.arange(batch) % 2).to(device)
     joints = torch.zeros(batch, 24, 3, device=device)
     betas = torch.zeros(batch, 10, device=device)
     maps = torch.zeros(batch, *GRID.shape, device=device)
     scales = LossScales(q=10.0, contact=0.4)
-    dtype = torch.bfloat16 if device == "cuda" and torch.cuda.is_bf16_supported() else torch.float16
+    config = TrainConfig()
+    dtype = torch.bfloat16 if device == "cpu" or torch.cuda.is_bf16_supported() else torch.float16
     out = {}
     for stage in (1, 2):
         module = net.mod1 if stage == 1 else net.mod2
+        for q in net.mod1.parameters():
+            q.requires_grad_(stage == 1)
         opt = torch.optim.Adam(module.parameters(), lr=2e-5, weight_decay=5e-4)
         net.train()
         net.mod1.train(stage == 1)
+        gen = torch.Generator(device=device).manual_seed(0)
 
         def step():
             with torch.autocast(device, dtype=dtype, enabled=amp):
-                x1 = net.inputs(p)
-                if stage == 1:
-                    loss, _ = loss_l1(net.run_mod1(x1, g, maps=False), joints, betas, scales)
-                else:
-                    with torch.no_grad():
-                        o1 = net.run_mod1(x1, g)
-                    loss, _ = loss_l2(net.run_mod2(x1, g, o1), joints, betas, maps, maps, scales)
-            opt.zero_grad()
+                o = _forward(net, stage, p, g, gen, config, maps=stage == 2)
+                loss = (loss_l1(o, joints, betas, scales) if stage == 1
+                        else loss_l2(o, joints, betas, maps, maps, scales))[0]
+            opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
             if device == "cuda":
                 torch.cuda.synchronize()
 
-        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = batch / timed(step, steps)[0]
+        cpu, wall = timed(step, steps)
+        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = (batch / cpu, batch / wall)
+    for q in net.mod1.parameters():
+        q.requires_grad_(True)
     return out
 
 
@@ -159,56 +203,82 @@ def accuracy_section(model: str, data: str, batch_size: int = 64, limit: int | N
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--frames", type=int, default=40, help="timed inference frames (median reported; default 40)")
+    p.add_argument("--frames", type=int, default=40, help="timed calls of estimate() on one image (median; default 40)")
     p.add_argument("--train-batch", type=int, default=32, help="CPU training batch (default 32)")
-    p.add_argument("--train-steps", type=int, default=3, help="timed training steps per module (default 3)")
-    p.add_argument("--train-threads", type=int, default=os.cpu_count(), help="CPU threads for training")
+    p.add_argument("--train-steps", type=int, default=3, help="timed training steps per module and option (default 3)")
     p.add_argument("--model", default=None, help="trained model for the accuracy table")
     p.add_argument("--data", default=None, help="test dataset for the accuracy table")
     p.add_argument("--limit", type=int, default=None, help="test samples to use (default all)")
+    p.add_argument("--compile", action="store_true", help="also time training with the CNNs under torch.compile "
+                                                         "(compiles for a minute or more)")
     p.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = p.parse_args(argv)
 
     female, male, body_label = bodies()
     load_before = os.getloadavg()[0]
     torch.set_num_threads(1)
-    net = make_net(female, male)
-    inf = bench_inference(net, args.frames)
-    torch.set_num_threads(args.train_threads)
-    train_cpu = bench_training(net, args.train_batch, args.train_steps)
+    with tempfile.TemporaryDirectory() as tmp:
+        model, model_label = user_model(female, male, tmp)
+        est = bench_estimate(model, args.frames)
+        parts = bench_parts(resolve_model(model), args.frames)
+    train_cpu = {label: bench_training(make_net(female, male, cnn=cnn), args.train_batch, args.train_steps, amp=amp)
+                 for label, cnn, amp in TRAIN_OPTIONS}
+    if args.compile:
+        train_cpu["paper CNN, float32, torch.compile"] = bench_training(
+            make_net(female, male), args.train_batch, args.train_steps, compile_cnns=True)
     train_gpu = None
     if torch.cuda.is_available():
-        gnet = make_net(female, male, "cuda")
-        train_gpu = bench_training(gnet, 128, 10, device="cuda", amp=True)
+        train_gpu = bench_training(make_net(female, male, "cuda"), 128, 10, device="cuda", amp=True)
     load_after = os.getloadavg()[0]
 
-    wall, cpu = inf["end to end (Mod1 + Mod2)"]
+    cpu1, wall1, _ = est["one image, estimate(image, 'f')"]
+    base = train_cpu[TRAIN_OPTIONS[0][0]]
     lines = [
         "## PressureNet (`benchmarks/bench_net.py`)",
         "",
         f"Machine: {platform.platform()}, {os.cpu_count()} CPUs (load average {load_before:.1f} before, "
-        f"{load_after:.1f} after: the machine is shared); torch {torch.__version__}; "
+        f"{load_after:.1f} after: the machine is shared with other jobs); torch {torch.__version__}, one thread; "
         f"{datetime.date.today().isoformat()}. Bodies: {body_label} ({female.num_vertices} vertices). "
-        f"Mat 64 x 27, network input 128 x 54 (flattened CNN features {flattened_size(128, 54):,}).",
+        f"Mat 64 x 27, network input 128 x 54 (flattened CNN features {flattened_size(128, 54):,}). "
+        "Figures are CPU time (`time.process_time`, one torch thread): the cost on a free core; the wall "
+        "time on this shared machine is given beside it.",
         "",
-        f"Inference, batch 1, one CPU thread, Mod1 + Mod2 end to end (goal >= 30 frames/s): "
-        f"**{1 / cpu:.1f} frames/s by CPU time** (the cost on a free core), {1 / wall:.1f} frames/s by wall "
-        f"time on this shared machine; medians of {args.frames} frames. Breakdown (ms, median):",
+        f"Inference as a user calls it, `estimate(image, \"f\")` on one 64 x 27 image, repeated, with "
+        f"{model_label} loaded once and cached (goal >= 30 frames/s on one core): "
+        f"**{1 / cpu1:.1f} frames/s by CPU time** ({1000 * cpu1:.1f} ms per call; {1 / wall1:.1f} frames/s by "
+        f"wall time); medians of {args.frames} calls. Batches (both modules, meshes and maps for every image):",
+        "",
+        "| call | CPU ms per call | images per CPU-second | images per wall-second |",
+        "|---|---|---|---|",
+        *[f"| {k} | {1000 * c:.1f} | {n / c:.1f} | {n / w:.1f} |" for k, (c, w, n) in est.items()],
+        "",
+        "Parts of one call (batch 1, each repeated on its own with warm caches, so they add up to less "
+        "than the call; the two CNNs and two body layers and PMRs run once per module):",
         "",
         "| part | CPU ms | wall ms |",
         "|---|---|---|",
-        *[f"| {k} | {1000 * c:.2f} | {1000 * w:.2f} |" for k, (w, c) in inf.items()],
+        *[f"| {k} | {1000 * c:.2f} | {1000 * w:.2f} |" for k, (c, w) in parts.items()],
         "",
-        f"Training, CPU ({args.train_threads} threads), batch {args.train_batch}, Adam step, wall time (median of "
-        f"{args.train_steps}; shared machine, so a lower bound):",
+        f"Training on the CPU, one thread, batch {args.train_batch}, the training loop's steps (noise, input "
+        f"transform, forward, loss, backward, Adam); median of {args.train_steps} steps. The paper's CNN in "
+        "float32 is the default; the others are options (`train --cnn half|quarter`, `--cpu-amp`) whose "
+        "accuracy against the paper's is not measured yet (no training set this session); each still "
+        "overfits a tiny set (tests/net/test_train_options.py).",
         "",
-        "| module | images/s |",
-        "|---|---|",
-        *[f"| {k} | {v:.1f} |" for k, v in train_cpu.items()],
+        "| option | Mod1 (L1) images per CPU-s | x default | Mod2 (L2) images per CPU-s | x default | "
+        "Mod1 images per wall-s |",
+        "|---|---|---|---|---|---|",
+        *[f"| {k} | {v['Mod1 (L1)'][0]:.1f} | {v['Mod1 (L1)'][0] / base['Mod1 (L1)'][0]:.1f} | "
+          f"{v['Mod2 (L2)'][0]:.1f} | {v['Mod2 (L2)'][0] / base['Mod2 (L2)'][0]:.1f} | {v['Mod1 (L1)'][1]:.1f} |"
+          for k, v in train_cpu.items()],
     ]
+    if args.compile:
+        lines += ["", "torch.compile row: both CNNs compiled by inductor (C++ made by the local gcc, offline); "
+                      "the timed steps follow two warm-up steps, so compiling is not in the figures."]
     if train_gpu:
         lines += ["", f"Training, GPU ({torch.cuda.get_device_name()}), batch 128, mixed precision:", "",
-                  "| module | images/s |", "|---|---|", *[f"| {k} | {v:.1f} |" for k, v in train_gpu.items()]]
+                  "| module | images/s (wall) |", "|---|---|",
+                  *[f"| {k} | {w:.1f} |" for k, (_, w) in train_gpu.items()]]
     else:
         lines += ["", "No CUDA GPU on this machine: GPU training speed not measured."]
     if args.model and args.data:

@@ -53,6 +53,29 @@ def batch_rodrigues(axis_angle: torch.Tensor) -> torch.Tensor:
     return eye + a[..., None] * K + b[..., None] * (K @ K)
 
 
+def _tree_levels(parents: list[int]) -> dict:
+    """The kinematic tree (root 0) ordered by depth, for posing it a level at a time: ``order``
+    (the joints, root first, then each level's), ``levels`` ((start, stop) of each level below the
+    root in that order), ``up`` (each joint's parent's position in that order; the root's 0) and
+    ``back`` (the permutation from that order to joint order; None when it is the identity, as for
+    SMPL)."""
+    depth = [0] * len(parents)
+    for j in range(1, len(parents)):
+        d, p = 1, parents[j]
+        while p != 0:
+            d, p = d + 1, parents[p]
+        depth[j] = d
+    order, levels = [0], []
+    for d in range(1, max(depth, default=0) + 1):
+        joints = [j for j in range(len(parents)) if depth[j] == d]
+        levels.append((len(order), len(order) + len(joints)))
+        order += joints
+    up = [0] + [order.index(parents[j]) for j in order[1:]]
+    back = [order.index(j) for j in range(len(parents))]
+    identity = order == list(range(len(parents)))
+    return {"order": None if identity else order, "levels": levels, "up": up, "back": None if identity else back}
+
+
 class BodyLayer(nn.Module):
     """Differentiable SMPL-format body model. Build with ``BodyModel(...).torch_layer()``.
 
@@ -70,19 +93,29 @@ class BodyLayer(nn.Module):
 
         buf("v_template", arrays.v_template)
         buf("shapedirs", arrays.shapedirs)
-        buf("posedirs", arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T)  # (P, V*3)
+        # (P, V*3) row-major: a transposed view makes the pose blend product ~3x slower
+        buf("posedirs", np.ascontiguousarray(arrays.posedirs.reshape(-1, arrays.posedirs.shape[2]).T))
         buf("J_regressor", arrays.J_regressor)
         buf("weights", arrays.weights)
         buf("y_up_to_z_up", Y_UP_TO_Z_UP)
+        # the rest joints are linear in betas: J = J_template + J_shapedirs . betas (precomputed in
+        # float64), which spares a (J, V) x (V, 3) product per pose
+        jreg = np.asarray(arrays.J_regressor, dtype=np.float64)
+        buf("J_template", jreg @ np.asarray(arrays.v_template, dtype=np.float64))
+        buf("J_shapedirs", np.einsum("jv,vcs->jcs", jreg, np.asarray(arrays.shapedirs, dtype=np.float64)))
+        self._tree = _tree_levels(self.parents)
+        self._tree_index: dict = {}  # the tree's index tensors per device
         self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
                 global_orient: torch.Tensor | None = None, transl: torch.Tensor | None = None,
-                check: bool = True) -> BodyOutput:
+                check: bool = True, vertices: bool = True) -> BodyOutput:
         """Pose the body. Any argument may be None (zeros); batch size from the first given.
 
         check: BadInput for NaN or infinite parameters, as the numpy path (PressureNet passes False
         for its own outputs, which keeps a training step free of a device sync).
+        vertices: False skips the mesh (the output's vertices are None); the joints need only the
+        skeleton, a small part of the work.
         """
         for name, t in (("betas", betas), ("body_pose", body_pose), ("global_orient", global_orient),
                         ("transl", transl)):
@@ -105,32 +138,56 @@ class BodyLayer(nn.Module):
             raise BadInput(f"body_pose has {body_pose.shape[-1]} values; expected {3 * (n_j - 1)}")
 
         s = betas.shape[-1]
-        v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :s], betas)
-        J = torch.einsum("jv,bvc->bjc", self.J_regressor, v_shaped)
+        J = self.J_template + torch.einsum("jcs,bs->bjc", self.J_shapedirs[..., :s], betas)
         pose = torch.cat([global_orient, body_pose], dim=-1).reshape(bsz, n_j, 3)
         rot = batch_rodrigues(pose)
-        eye = torch.eye(3, dtype=dt, device=dev)
+
+        Rw, tw = self._kinematic_tree(rot, J)
+        Q = self.y_up_to_z_up
+        Rw = Q @ Rw
+        joints = tw @ Q.T
+        verts = self._skin(betas, rot, J, Rw, joints) if vertices else None
+        if transl is not None:
+            t = transl.to(dt)[:, None]
+            joints = joints + t
+            verts = None if verts is None else verts + t
+        return BodyOutput(vertices=verts, joints=joints, rotations=Rw)
+
+    def _tree_tensors(self, device) -> dict:
+        idx = self._tree_index.get(device)
+        if idx is None:
+            idx = {k: None if v is None else torch.tensor(v, dtype=torch.long, device=device)
+                   for k, v in self._tree.items() if k != "levels"}
+            self._tree_index[device] = idx
+        return idx
+
+    def _kinematic_tree(self, rot: torch.Tensor, J: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """World rotations (B, J, 3, 3) and positions (B, J, 3) of the joints (y-up) from their
+        local rotations rot (B, J, 3, 3) and rest positions J (B, J, 3): down the tree a level at a
+        time (all joints of one depth in one product)."""
+        idx = self._tree_tensors(rot.device)
+        if idx["order"] is not None:
+            rot, J = rot.index_select(1, idx["order"]), J.index_select(1, idx["order"])
+        rel = torch.cat([J[:, :1], J[:, 1:] - J.index_select(1, idx["up"][1:])], 1)  # each from its parent
+        Rw, tw = rot[:, :1], rel[:, :1]  # the joints done so far
+        for start, stop in self._tree["levels"]:
+            up = idx["up"][start:stop]
+            Rp = Rw.index_select(1, up)
+            tw = torch.cat([tw, tw.index_select(1, up) + (Rp @ rel[:, start:stop, :, None])[..., 0]], 1)
+            Rw = torch.cat([Rw, Rp @ rot[:, start:stop]], 1)
+        if idx["back"] is not None:
+            Rw, tw = Rw.index_select(1, idx["back"]), tw.index_select(1, idx["back"])
+        return Rw, tw
+
+    def _skin(self, betas, rot, J, Rw, joints) -> torch.Tensor:
+        """Vertices (B, V, 3), z-up, before the translation: shape and pose blend shapes, then
+        linear blend skinning with the joints' world rotations Rw (z-up) at ``joints``."""
+        bsz, n_j = rot.shape[:2]
+        v_shaped = self.v_template + torch.einsum("vcs,bs->bvc", self.shapedirs[..., :betas.shape[-1]], betas)
+        eye = torch.eye(3, dtype=rot.dtype, device=rot.device)
         pose_feature = (rot[:, 1:] - eye).reshape(bsz, -1)
         v_posed = v_shaped + (pose_feature @ self.posedirs).reshape(bsz, -1, 3)
-
-        rel = torch.cat([J[:, :1], J[:, 1:] - J[:, self.parents[1:]]], dim=1)
-        world_R = [rot[:, 0]]
-        world_t = [rel[:, 0]]
-        for j in range(1, n_j):
-            p = self.parents[j]
-            world_R.append(world_R[p] @ rot[:, j])
-            world_t.append(world_t[p] + (world_R[p] @ rel[:, j, :, None])[..., 0])
-        Rw = torch.stack(world_R, 1)  # (B, J, 3, 3)
-        tw = torch.stack(world_t, 1)  # (B, J, 3)
-        t_skin = tw - (Rw @ J[..., None])[..., 0]
-        T_R = torch.einsum("vj,bjcd->bvcd", self.weights, Rw)
-        T_t = torch.einsum("vj,bjc->bvc", self.weights, t_skin)
-        verts = (T_R @ v_posed[..., None])[..., 0] + T_t
-        Q = self.y_up_to_z_up
-        verts = verts @ Q.T
-        joints = tw @ Q.T
-        Rw = Q @ Rw
-        if transl is not None:
-            verts = verts + transl.to(dt)[:, None]
-            joints = joints + transl.to(dt)[:, None]
-        return BodyOutput(vertices=verts, joints=joints, rotations=Rw)
+        t_skin = joints - (Rw @ J[..., None])[..., 0]
+        # blend the joints' transforms [R | t] with the skinning weights in one product
+        T = self.weights @ torch.cat([Rw.reshape(bsz, n_j, 9), t_skin], -1)  # (B, V, 12)
+        return torch.einsum("bvcd,bvd->bvc", T[..., :9].reshape(bsz, -1, 3, 3), v_posed) + T[..., 9:]

@@ -250,7 +250,7 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
     return _cached_model(str(path.resolve()), path.stat().st_mtime, None if bodies is None else tuple(map(str, bodies)))
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64,
                 progress: bool = False):
     """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch
@@ -260,7 +260,8 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
     if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
         raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
     device = next(net.parameters()).device
-    net.eval()
+    if net.training:
+        net.eval()
     g = torch.tensor([GENDER_CODES[x] for x in genders], dtype=torch.long)
     results = []
     for s in tqdm(range(0, len(pressure), batch_size), desc="infer", unit="batch", disable=not progress):
@@ -284,7 +285,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     parts = run_network(net, arr, genders, batch_size, progress)
 
     def cat(fn):
-        return torch.cat([fn(o1, o2).float().cpu() for o1, o2 in parts]).numpy()
+        items = [fn(o1, o2) for o1, o2 in parts]
+        return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),

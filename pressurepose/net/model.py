@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, field
 import torch
 from torch import nn
 
-from pressurepose.net.cnn import PressureCNN
+from pressurepose.net.cnn import PAPER_CHANNELS, PressureCNN
 from pressurepose.net.outputs import BodyParams, OutputConfig, OutputLayer
 from pressurepose.net.pmr import MatGrid, PMRConfig, PMRMaps, pmr
 from pressurepose.net.transforms import InputConfig, input_channels, map_channels
@@ -41,6 +41,8 @@ class NetConfig:
     use_pmr: Mod2 gets Mod1's PMR maps (False: the paper's "PMR ablated" network).
     gender_input: append the gender flag to the CNN features (not in the paper; default off).
     dropout: CNN dropout probability (paper 0.1).
+    cnn_channels: the widths of the CNN's four conv layers (the paper's (192, 192, 384, 384); see
+    :data:`pressurepose.net.cnn.CNN_VARIANTS` for lighter ones).
     """
 
     grid: MatGrid
@@ -50,6 +52,7 @@ class NetConfig:
     use_pmr: bool = True
     gender_input: bool = False
     dropout: float = 0.1
+    cnn_channels: tuple[int, int, int, int] = PAPER_CHANNELS
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -60,6 +63,8 @@ class NetConfig:
         d = dict(d)
         out = d.pop("outputs")
         out = OutputConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
+        if "cnn_channels" in d:  # absent from models saved before it existed: the paper's
+            d["cnn_channels"] = tuple(int(c) for c in d["cnn_channels"])
         return NetConfig(grid=MatGrid(**d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
                          pmr=PMRConfig(**d.pop("pmr")), **d)
 
@@ -67,10 +72,10 @@ class NetConfig:
 @dataclass
 class ModuleOutput:
     """One module's estimate: params, vertices (B, V, 3) and joints (B, 24, 3) in the bed frame
-    (metres), and its PMR maps (None where they were not asked for)."""
+    (metres), and its PMR maps (vertices and maps None where they were not asked for)."""
 
     params: BodyParams
-    vertices: torch.Tensor
+    vertices: torch.Tensor | None
     joints: torch.Tensor
     maps: PMRMaps | None
 
@@ -93,14 +98,16 @@ class GenderedBody(nn.Module):
     def faces(self) -> torch.Tensor:
         return self.layers[0].faces
 
-    def forward(self, params: BodyParams, gender: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Vertices (B, V, 3) and joints (B, 24, 3) in float32 (outside any autocast)."""
+    def forward(self, params: BodyParams, gender: torch.Tensor, vertices: bool = True,
+                ) -> tuple[torch.Tensor | None, torch.Tensor]:
+        """Vertices (B, V, 3) (None with ``vertices=False``) and joints (B, 24, 3) in float32
+        (outside any autocast)."""
         with full_precision(params.betas.device):
             args = dict(betas=params.betas.float(), body_pose=params.body_pose.float(),
                         global_orient=params.global_orient.float(), transl=params.transl.float())
             args["check"] = False  # the network's own outputs: NaN there is a training problem, not bad input
             if len(self.layers) == 1:
-                out = self.layers[0](**args)
+                out = self.layers[0](**args, vertices=vertices)
                 return out.vertices, out.joints
             if bool(((gender < 0) | (gender > 1)).any()):
                 raise ValueError("gender must hold 0 (female) or 1 (male) for every batch element")
@@ -109,13 +116,16 @@ class GenderedBody(nn.Module):
                 idx = (gender == g).nonzero().squeeze(1)
                 if idx.numel() == 0:
                     continue
-                out = layer(**{k: v.index_select(0, idx) if torch.is_tensor(v) else v for k, v in args.items()})
-                if verts is None:
+                out = layer(**{k: v.index_select(0, idx) if torch.is_tensor(v) else v for k, v in args.items()},
+                            vertices=vertices)
+                if joints is None:
                     b = gender.shape[0]
-                    verts = out.vertices.new_zeros((b,) + out.vertices.shape[1:])
                     joints = out.joints.new_zeros((b,) + out.joints.shape[1:])
-                verts = verts.index_copy(0, idx, out.vertices)
+                    if vertices:
+                        verts = out.vertices.new_zeros((b,) + out.vertices.shape[1:])
                 joints = joints.index_copy(0, idx, out.joints)
+                if vertices:
+                    verts = verts.index_copy(0, idx, out.vertices)
             return verts, joints
 
 
@@ -125,7 +135,8 @@ class PressureNetModule(nn.Module):
     def __init__(self, config: NetConfig, in_channels: int, zero_init: bool = False):
         super().__init__()
         h, w = config.inputs.input_size(config.grid.rows, config.grid.cols)
-        self.cnn = PressureCNN(in_channels, h, w, dropout=config.dropout, gender_input=config.gender_input)
+        self.cnn = PressureCNN(in_channels, h, w, dropout=config.dropout, gender_input=config.gender_input,
+                               channels=config.cnn_channels)
         self.outputs = OutputLayer(config.outputs)
         if zero_init:  # a residual module starts as the identity on its base estimate
             nn.init.zeros_(self.cnn.fc.weight)
@@ -150,15 +161,18 @@ class PressureNet(nn.Module):
         self.mod2 = PressureNetModule(config, config.inputs.num_channels(2 if config.use_pmr else 0),
                                       zero_init=True)
 
-    def pose_body(self, params: BodyParams, gender: torch.Tensor, maps: bool) -> ModuleOutput:
-        verts, joints = self.body(params, gender)
-        with full_precision(verts.device):
+    def pose_body(self, params: BodyParams, gender: torch.Tensor, maps: bool, vertices: bool = True) -> ModuleOutput:
+        """The body (and with ``maps`` its PMR maps) for ``params``; ``vertices=False`` (and no
+        maps) poses the skeleton only, all that the joint and beta losses need."""
+        verts, joints = self.body(params, gender, vertices=vertices or maps)
+        with full_precision(joints.device):
             m = pmr(verts, self.config.grid, self.config.pmr) if maps else None
         return ModuleOutput(params, verts, joints, m)
 
-    def run_mod1(self, x1: torch.Tensor, gender: torch.Tensor, maps: bool = True) -> ModuleOutput:
+    def run_mod1(self, x1: torch.Tensor, gender: torch.Tensor, maps: bool = True, vertices: bool = True,
+                 ) -> ModuleOutput:
         """Mod1 on its input channels x1 (B, K1, H, W)."""
-        return self.pose_body(self.mod1(x1, gender), gender, maps)
+        return self.pose_body(self.mod1(x1, gender), gender, maps, vertices)
 
     def mod2_input(self, x1: torch.Tensor, out1: ModuleOutput) -> torch.Tensor:
         """Mod2's input: x1 plus (with PMR) the channels of Mod1's maps Q_1 and C_O,1 (no gradient)."""
@@ -169,10 +183,11 @@ class PressureNet(nn.Module):
         with full_precision(x1.device):
             return torch.cat([x1, map_channels(extra.float(), self.config.inputs).to(x1.dtype)], 1)
 
-    def run_mod2(self, x1: torch.Tensor, gender: torch.Tensor, out1: ModuleOutput, maps: bool = True) -> ModuleOutput:
+    def run_mod2(self, x1: torch.Tensor, gender: torch.Tensor, out1: ModuleOutput, maps: bool = True,
+                 vertices: bool = True) -> ModuleOutput:
         """Mod2 refining ``out1`` (its parameters are the base of Mod2's residuals, no gradient)."""
         base = BodyParams(**{k: v.detach() for k, v in vars(out1.params).items()})
-        return self.pose_body(self.mod2(self.mod2_input(x1, out1), gender, base), gender, maps)
+        return self.pose_body(self.mod2(self.mod2_input(x1, out1), gender, base), gender, maps, vertices)
 
     def inputs(self, pressure: torch.Tensor, contact: torch.Tensor | None = None,
                blur_sigma: torch.Tensor | None = None) -> torch.Tensor:

@@ -44,6 +44,7 @@ from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput
 from pressurepose.files import atomic_write, write_text_atomic
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
+from pressurepose.net.cnn import CNN_VARIANTS
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
@@ -68,6 +69,10 @@ class TrainConfig:
     noise: the paper's ablations.
     save_every: epochs between resumable states (the last epoch of each stage is always saved).
     device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
+    cnn: the CNN's widths, a name in :data:`pressurepose.net.cnn.CNN_VARIANTS` ("paper", the
+    default, or a lighter variant for CPU training, not shown to be as accurate). cpu_amp: run the
+    CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
+    layer, PMR and losses stay float32), like ``amp`` on CUDA.
     """
 
     epochs_mod1: int = 100
@@ -92,6 +97,8 @@ class TrainConfig:
     device: str = "auto"
     amp: bool = True
     save_every: int = 1
+    cnn: str = "paper"
+    cpu_amp: bool = False
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
@@ -109,6 +116,8 @@ class TrainConfig:
             raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
         if not 0 <= self.seed < 2 ** 63:  # torch's generators take 64-bit seeds
             raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
+        if self.cnn not in CNN_VARIANTS:
+            raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -153,6 +162,19 @@ def as_training_data(data: Mapping, grid: MatGrid) -> dict[str, torch.Tensor]:
     if n < 1:
         raise BadInput("training data is empty")
     return out
+
+
+def _with_defaults(stored: dict | None) -> dict | None:
+    """A stored run identity with the fields added since it was written at their defaults (so
+    that runs started before them still resume)."""
+    if not isinstance(stored, dict):
+        return stored
+    stored = json.loads(json.dumps(stored))
+    if isinstance(stored.get("train"), dict):
+        stored["train"].setdefault("cnn", "paper")
+    if isinstance(stored.get("net"), dict):
+        stored["net"].setdefault("cnn_channels", list(CNN_VARIANTS["paper"]))
+    return stored
 
 
 def _fingerprint(data: dict[str, torch.Tensor]) -> str:
@@ -216,7 +238,7 @@ def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> 
                      inputs=InputConfig(upsample=config.upsample, blur_sigma=config.blur_sigma,
                                         edges_contact=config.edges_contact),
                      pmr=PMRConfig(), use_pmr=config.use_pmr, gender_input=config.gender_input,
-                     dropout=config.dropout)
+                     dropout=config.dropout, cnn_channels=CNN_VARIANTS[config.cnn])
 
 
 class _Logger:
@@ -302,11 +324,12 @@ def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: 
         x1 = net.inputs(noisy, contact=mask, blur_sigma=sigma)
     else:
         x1 = net.inputs(pressure)
+    # the mesh only where PMR needs it: the L1 terms (joints, betas) need the skeleton alone
     if stage == 1:
-        return net.run_mod1(x1, gender, maps=maps)
+        return net.run_mod1(x1, gender, maps=maps, vertices=False)
     with torch.no_grad():
-        out1 = net.run_mod1(x1, gender, maps=config.use_pmr)
-    return net.run_mod2(x1, gender, out1, maps=maps)
+        out1 = net.run_mod1(x1, gender, maps=config.use_pmr, vertices=False)
+    return net.run_mod2(x1, gender, out1, maps=maps, vertices=False)
 
 
 def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
@@ -335,7 +358,8 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     net_config = net_config_for(config, grid, data["transl"][train_idx])
     torch.manual_seed(config.seed)  # the initial weights
     net = PressureNet(net_config, gendered_body(*bodies)).to(device)
-    resumable = {k: v for k, v in config.to_dict().items() if k not in ("epochs_mod1", "epochs_mod2", "device")}
+    resumable = {k: v for k, v in config.to_dict().items()
+                 if k not in ("epochs_mod1", "epochs_mod2", "device", "cpu_amp")}
     identity = {"train": resumable, "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
                 "data": _fingerprint(data)}
     identity = json.loads(json.dumps(identity))  # tuples -> lists, as stored
@@ -348,7 +372,7 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                        f"state.json and state.safetensors to start the run afresh, or use another --out") from None
     if record is not None and not isinstance(record, dict):
         raise BadInput(f"{state_path} is not a training state; use another --out")
-    if record is not None and record.get("identity") != identity:
+    if record is not None and _with_defaults(record.get("identity")) != identity:
         raise BadInput(f"{out_dir} holds a training run with a different config, body model or data; "
                        f"use another output folder (nothing was overwritten)")
 
@@ -361,8 +385,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                             c_true[t_idx] if c_true is not None else None,
                             paper_joints_betas=config.loss_sigmas == "paper")
 
-    use_amp = config.amp and device.type == "cuda"
-    amp_dtype = torch.bfloat16 if use_amp and torch.cuda.is_bf16_supported() else torch.float16
+    use_amp = (config.amp and device.type == "cuda") or (config.cpu_amp and device.type == "cpu")
+    amp_dtype = (torch.bfloat16 if device.type == "cpu" or (use_amp and torch.cuda.is_bf16_supported())
+                 else torch.float16)
     history = list(record["history"]) if record else []
     logger = _Logger(out_dir, history)
     resume_stage, resume_epoch = (record["stage"], record["epoch"] + 1) if record else (1, 0)

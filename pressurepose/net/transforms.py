@@ -11,6 +11,7 @@ own sum; Mod2 appends the two maps PMR reconstructed from Mod1's body.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import torch
@@ -38,10 +39,28 @@ class InputConfig:
         return rows * self.upsample, cols * self.upsample
 
 
+# The small constant tensors below are made once per size, dtype and device (lru_cache) and outside
+# inference mode, so that a constant first made during inference can still enter autograd.
+@functools.lru_cache(maxsize=64)
 def _symmetric_index(n: int, pad: int, device) -> torch.Tensor:
     """Indices (n + 2 pad,) into a length-n axis for half-sample symmetric padding (any pad)."""
-    i = torch.arange(-pad, n + pad, device=device) % (2 * n)
-    return torch.where(i < n, i, 2 * n - 1 - i)
+    with torch.inference_mode(False):
+        i = torch.arange(-pad, n + pad, device=device) % (2 * n)
+        return torch.where(i < n, i, 2 * n - 1 - i)
+
+
+@functools.lru_cache(maxsize=64)
+def _gaussian_kernel(sigma: float, radius: int, dtype, device) -> torch.Tensor:
+    with torch.inference_mode(False):
+        return gaussian_kernels(torch.tensor([sigma], dtype=dtype, device=device), radius)
+
+
+@functools.lru_cache(maxsize=16)
+def _sobel_kernels(dtype, device) -> torch.Tensor:
+    with torch.inference_mode(False):
+        d = torch.tensor([-1.0, 0.0, 1.0], dtype=dtype, device=device)
+        s = torch.tensor([1.0, 2.0, 1.0], dtype=dtype, device=device)
+        return torch.stack([torch.outer(d, s), torch.outer(s, d)])[:, None]  # d/drow, d/dcol
 
 
 def _pad_symmetric(x: torch.Tensor, pad_h: int, pad_w: int) -> torch.Tensor:
@@ -71,13 +90,19 @@ def gaussian_blur(images: torch.Tensor, sigma: float | torch.Tensor, truncate: f
     ``truncate`` sigma like ``scipy.ndimage.gaussian_filter``; the total of each image is kept.
     """
     lead, (h, w) = images.shape[:-2], images.shape[-2:]
-    sig = torch.as_tensor(sigma, dtype=images.dtype, device=images.device)
-    sig = sig.clamp_min(0).expand(lead).reshape(-1)
-    radius = int(truncate * float(sig.max()) + 0.5) if sig.numel() else 0
-    if radius == 0:
-        return images
-    n = sig.numel()
-    k = gaussian_kernels(sig, radius)  # (N, K)
+    n = lead.numel()
+    if isinstance(sigma, (int, float)):  # one sigma for all: a cached kernel
+        radius = int(truncate * max(float(sigma), 0.0) + 0.5) if n else 0
+        if radius == 0:
+            return images
+        k = _gaussian_kernel(max(float(sigma), 0.0), radius, images.dtype, images.device).expand(n, -1)
+    else:
+        sig = torch.as_tensor(sigma, dtype=images.dtype, device=images.device)
+        sig = sig.clamp_min(0).expand(lead).reshape(-1)
+        radius = int(truncate * float(sig.max()) + 0.5) if sig.numel() else 0
+        if radius == 0:
+            return images
+        k = gaussian_kernels(sig, radius)  # (N, K)
     x = _pad_symmetric(images.reshape(1, n, h, w), radius, radius)
     x = F.conv2d(x, k[:, None, :, None], groups=n)  # along H
     x = F.conv2d(x, k[:, None, None, :], groups=n)  # along W
@@ -88,11 +113,8 @@ def sobel_magnitude(images: torch.Tensor) -> torch.Tensor:
     """Sobel edge magnitude sqrt(gx^2 + gy^2) of images (..., H, W), as
     ``hypot(ndimage.sobel(p, 0), ndimage.sobel(p, 1))`` (mode reflect)."""
     lead, (h, w) = images.shape[:-2], images.shape[-2:]
-    d = torch.tensor([-1.0, 0.0, 1.0], dtype=images.dtype, device=images.device)
-    s = torch.tensor([1.0, 2.0, 1.0], dtype=images.dtype, device=images.device)
-    kernels = torch.stack([torch.outer(d, s), torch.outer(s, d)])[:, None]  # d/drow, d/dcol
     x = _pad_symmetric(images.reshape(-1, 1, h, w), 1, 1)
-    g = F.conv2d(x, kernels)
+    g = F.conv2d(x, _sobel_kernels(images.dtype, images.device))
     return torch.hypot(g[:, 0], g[:, 1]).reshape(*lead, h, w)
 
 
