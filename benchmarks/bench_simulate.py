@@ -170,8 +170,8 @@ def main(argv=None) -> int:
         f"its attempts): {startup['warm']:.2f} s with the fitted settle stiffness read from the cache, "
         f"{startup['cold']:.2f} s on a machine's first run (the fit, then cached in `~/.cache/pressurepose`).",
         f"A settle step costs {1000 * np.median(per_step):.2f} ms of CPU (median over the rows; MuJoCo's "
-        "step is most of it: about half is the 612-cell bed itself, collision and constraints of its contacts "
-        "the rest).", "",
+        "step is most of it: about a third is the 612-cell bed itself, the contacts of the resting body most of "
+        "the rest; docs/throughput.md).", "",
         f"**`general`: {general_rate:.2f} accepted samples per CPU-second** (both genders, start-up included). "
         f"**Paper recipe** (`generate --recipe paper --scale {args.recipe_scale:g}`, all 36 entries in one "
         f"process, {recipe_counts['samples']} samples, {recipe_counts['attempts']} attempts): "
