@@ -103,8 +103,11 @@ def main(argv=None) -> int:
         f"Measured: two workers ran {speedup:.2f}x as fast as one in wall time (goal 1.8x), on one shard: with "
         f"several workers a shard is made in parts (about 4 per worker) and put together by the coordinating "
         f"process, so both workers have work. Two workers used {two['cpu'] / one['cpu']:.2f}x the CPU of one "
-        f"(the second worker's start-up and the forkserver). On this shared machine the wall-time ratio also "
-        f"measures the other jobs: 'cores busy' below 2 with 2 workers means the cores were not free.",
+        f"(the second worker's start-up and the forkserver), so on two free cores they could run at best "
+        f"{2 * one['cpu'] / two['cpu']:.2f}x as fast (an estimate from CPU, not a measurement; the parts are "
+        f"handed out as workers free up, so the last part is the only imbalance). On this shared machine the "
+        f"wall-time ratio also measures the other jobs: 'cores busy' below 2 with 2 workers means the cores "
+        f"were not free.",
         "",
         f"Disk: {per_sample_disk / 1024:.1f} kB per sample (64 x 27 mat, all fields, gzip; synthetic images are "
         f"denser than physics ones, which are zero off the body).",
