@@ -1,6 +1,7 @@
 """Physics simulation #1 (settle): steps to rest, seconds per sample, rejection rates.
 
     .venv/bin/python -m benchmarks.bench_settle [--count 20] [--seed 3] [--gender f]
+    .venv/bin/python -m benchmarks.bench_settle --agreement 4 --seed 7   # candidate speed-ups vs the default
 
 Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up), settles
 each on the default bed with the default :class:`SettleConfig` and, for comparison, with one cell per
