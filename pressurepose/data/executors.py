@@ -18,11 +18,12 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
 
-from pressurepose.data.pipeline import (AttemptsExhausted, GenerationError, Progress, UnitResult, WorkUnit,
+from pressurepose.data.pipeline import (AttemptsExhausted, GenerationError, PartResult, Progress, WorkUnit,
                                         format_failure, run_unit)
+from pressurepose.data.producers import PRODUCERS
 from pressurepose.errors import BadInput
 
-OnResult = Callable[[UnitResult], None]
+OnResult = Callable[[PartResult], None]
 OnFailure = Callable[[WorkUnit, str], None]
 
 
@@ -59,8 +60,8 @@ class _Retries:
         message = format_failure(unit, exc)
         if isinstance(exc, AttemptsExhausted):
             raise GenerationError(f"{unit} cannot be made: {exc}") from exc
-        n = self.used.get(unit.shard, 0) + 1
-        self.used[unit.shard] = n
+        n = self.used.get(unit, 0) + 1
+        self.used[unit] = n
         if n > self.retries:
             raise GenerationError(f"{unit} failed {n} times; giving up. Last error:\n{message}") from exc
         if self.on_failure:
@@ -111,7 +112,7 @@ def _init_worker(events, coordinator: int) -> None:
     threading.Thread(target=watch, daemon=True, name="coordinator-watchdog").start()
 
 
-def _run_unit_in_worker(unit: WorkUnit) -> UnitResult:
+def _run_unit_in_worker(unit: WorkUnit) -> PartResult:
     pending = [0, 0]
     last = [time.monotonic()]
 
@@ -130,20 +131,21 @@ def _run_unit_in_worker(unit: WorkUnit) -> UnitResult:
     return result
 
 
-def _context():
+def _context(producer: str):
     """'forkserver' where available: workers fork from a clean server process that has imported the
-    pipeline once (fast start, and safe with threads such as torch's or MuJoCo's in this process);
-    'spawn' elsewhere."""
+    pipeline and the producer's module once (fast start, and safe with threads such as torch's or
+    MuJoCo's in this process); 'spawn' elsewhere."""
     if "forkserver" in mp.get_all_start_methods():
         ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["pressurepose.data.pipeline", "pressurepose.data.executors"])
+        module = PRODUCERS.get(producer, producer).partition(":")[0]
+        ctx.set_forkserver_preload(["pressurepose.data.pipeline", "pressurepose.data.executors", module])
         return ctx
     return mp.get_context("spawn")
 
 
 def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> int:
     tracker = _Retries(retries, on_failure)
-    ctx = _context()
+    ctx = _context(units[0].config.producer)
     events = ctx.Queue()
     todo = deque(units)
 

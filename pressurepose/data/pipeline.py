@@ -1,12 +1,18 @@
 """Dataset generation: plan work units, skip finished shards, run the rest, commit them atomically.
 
-A work unit is (config, shard): the samples ``config.shard_range(shard)``. Sample ``i`` is made by
-calling the config's producer with :func:`~pressurepose.data.producers.attempt_rng` for attempts
-0, 1, 2, ... until it returns a Sample; so a unit's result depends only on (config, shard) and any
-shard can be regenerated anywhere, in any order, by any number of workers.
+A work unit is (config, shard, sample range): some or all of the samples ``config.shard_range(shard)``.
+Sample ``i`` is made by calling the config's producer with
+:func:`~pressurepose.data.producers.attempt_rng` for attempts 0, 1, 2, ... until it returns a Sample;
+so a unit's result depends only on (config, its sample range) and any shard can be regenerated
+anywhere, in any order, by any number of workers.
 
-Workers return a shard's bytes; only the coordinating process touches the output directory, so the
-same code runs on local processes and on Ray nodes without a shared file system.
+With one worker a unit is a whole shard. With several, a shard is split into parts small enough
+that every worker has work (:func:`plan_units`: about four units per worker), so ``--workers 2`` on
+a single 64-sample shard keeps both cores busy. Workers return their samples; the coordinating
+process puts a shard's parts together in index order (the same bytes whatever the split), encodes
+it and commits it. Only the coordinator touches the output directory, so the same code runs on local
+processes and on Ray nodes without a shared file system. A run killed mid-shard loses that shard's
+finished parts (the shard is the unit of resuming), never a committed shard.
 """
 
 from __future__ import annotations
@@ -38,35 +44,72 @@ class AttemptsExhausted(GenerationError):
 
 @dataclass(frozen=True)
 class WorkUnit:
+    """Samples ``start`` .. ``stop - 1`` of shard ``shard`` (default: the whole shard)."""
+
     config: GenerationConfig
     shard: int
+    start: int | None = None
+    stop: int | None = None
 
     @property
     def indices(self) -> range:
-        return self.config.shard_range(self.shard)
+        whole = self.config.shard_range(self.shard)
+        return range(whole.start if self.start is None else self.start,
+                     whole.stop if self.stop is None else self.stop)
 
     def __str__(self) -> str:
         return f"shard {self.shard} (samples {self.indices.start}..{self.indices.stop - 1})"
 
 
+@dataclass(frozen=True, eq=False)
+class PartResult:
+    """What a worker returns for one unit: its samples in index order, the accepted attempt number of
+    each, rejections by cause, and the wall and CPU seconds of the process that made them."""
+
+    unit: WorkUnit
+    samples: list
+    attempts: list
+    rejections: dict
+    seconds: float
+    cpu_seconds: float
+
+
 @dataclass(frozen=True)
 class UnitResult:
+    """A finished shard: its encoded bytes and statistics (CPU summed over its parts)."""
+
     shard: int
     data: bytes
     count: int
     attempts: int
     rejections: dict
     seconds: float
-    cpu_seconds: float  # CPU time of the process that made it
+    cpu_seconds: float  # CPU time of the processes that made its samples
 
 
 # progress callback: (shard, accepted, rejected) increments, called after every attempt
 Progress = Callable[[int, int, int], None]
 
 
-def plan_units(config: GenerationConfig) -> list[WorkUnit]:
-    """All work units of a dataset, in shard order."""
-    return [WorkUnit(config, k) for k in range(config.num_shards)]
+UNITS_PER_WORKER = 4
+
+
+def plan_units(config: GenerationConfig, shards: list[int] | None = None, workers: int = 1) -> list[WorkUnit]:
+    """The work units that make ``shards`` (default all), in index order. One worker: one unit per
+    shard. More: shards are split into parts of near-equal size, about ``UNITS_PER_WORKER`` units
+    per worker over all the shards, so that no worker idles while another makes a whole shard."""
+    shards = list(range(config.num_shards)) if shards is None else list(shards)
+    if workers <= 1 or not shards:
+        return [WorkUnit(config, k) for k in shards]
+    total = sum(len(config.shard_range(k)) for k in shards)
+    part = max(1, -(-total // (UNITS_PER_WORKER * workers)))
+    units = []
+    for k in shards:
+        r = config.shard_range(k)
+        n = -(-len(r) // part)
+        edges = [r.start + (len(r) * i) // n for i in range(n + 1)]
+        units += [WorkUnit(config, k, a, b) for a, b in zip(edges, edges[1:])]
+    return units
 
 
 def make_sample(config: GenerationConfig, index: int, producer=None,
@@ -96,8 +139,8 @@ def make_sample(config: GenerationConfig, index: int, producer=None,
                             f"({rejections}); raise max_attempts or fix the producer")
 
 
-def run_unit(unit: WorkUnit, progress: Progress | None = None) -> UnitResult:
-    """Produce one shard and return its bytes (pure: touches no files)."""
+def run_unit(unit: WorkUnit, progress: Progress | None = None) -> PartResult:
+    """Produce one unit's samples (pure: touches no files)."""
     t0, cpu0 = time.perf_counter(), time.process_time()
     producer = resolve_producer(unit.config.producer)
     samples, attempts, rejections = [], [], {}
@@ -107,9 +150,39 @@ def run_unit(unit: WorkUnit, progress: Progress | None = None) -> UnitResult:
         attempts.append(a)
         for cause, n in rej.items():
             rejections[cause] = rejections.get(cause, 0) + n
-    data = encode_shard(unit.config, unit.shard, samples, attempts, rejections)
-    return UnitResult(unit.shard, data, len(samples), len(samples) + sum(rejections.values()),
-                      rejections, time.perf_counter() - t0, time.process_time() - cpu0)
+    return PartResult(unit, samples, attempts, rejections, time.perf_counter() - t0, time.process_time() - cpu0)
+
+
+class ShardAssembler:
+    """Collects the parts of each shard; when a shard's last part arrives, encodes the shard (parts in
+    index order, so the bytes do not depend on how the shard was split or which part came first)
+    and hands its :class:`UnitResult` to ``on_shard``."""
+
+    def __init__(self, on_shard: Callable[[UnitResult], None]):
+        self.on_shard = on_shard
+        self.parts: dict[int, list[PartResult]] = {}
+
+    def __call__(self, part: PartResult) -> None:
+        unit = part.unit
+        parts = self.parts.setdefault(unit.shard, [])
+        parts.append(part)
+        whole = unit.config.shard_range(unit.shard)
+        if sum(len(p.unit.indices) for p in parts) < len(whole):
+            return
+        del self.parts[unit.shard]
+        parts.sort(key=lambda p: p.unit.indices.start)
+        samples = [s for p in parts for s in p.samples]
+        if [s.index for s in samples] != list(whole):
+            raise GenerationError(f"shard {unit.shard}: parts cover samples {[s.index for s in samples]}, "
+                                  f"expected {whole.start}..{whole.stop - 1}")
+        attempts = [a for p in parts for a in p.attempts]
+        rejections: dict[str, int] = {}
+        for p in parts:
+            for cause, n in p.rejections.items():
+                rejections[cause] = rejections.get(cause, 0) + n
+        data = encode_shard(unit.config, unit.shard, samples, attempts, rejections)
+        self.on_shard(UnitResult(unit.shard, data, len(samples), len(samples) + sum(rejections.values()),
+                                 rejections, sum(p.seconds for p in parts), sum(p.cpu_seconds for p in parts)))
 
 
 # --------------------------------------------------------------------------- resuming
@@ -239,11 +312,13 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     unit_cpu = []
     bar = ProgressBar(total=config.count, initial=manifest.samples_done, enabled=progress,
                       desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
+    assemble = ShardAssembler(lambda r: (_commit_result(out, manifest, r), bar.unit_done(r),
+                                         unit_cpu.append(r.cpu_seconds)))
+    parallel = 1 if ray_address else workers  # Ray: one unit per shard
     try:
-        retried = run_units([WorkUnit(config, k) for k in todo], workers=workers, ray_address=ray_address,
-                            retries=retries, on_result=lambda r: (_commit_result(out, manifest, r),
-                                                                  bar.unit_done(r), unit_cpu.append(r.cpu_seconds)),
-                            on_progress=bar.attempt, on_failure=bar.unit_failed)
+        retried = run_units(plan_units(config, todo, parallel), workers=workers, ray_address=ray_address,
+                            retries=retries, on_result=assemble, on_progress=bar.attempt,
+                            on_failure=bar.unit_failed)
     finally:
         bar.close()
     if len(manifest.shards) == config.num_shards and not manifest.complete:

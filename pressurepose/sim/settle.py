@@ -40,8 +40,14 @@ z-up bed frame, as ``BodyModel.forward``); the resting pose is exact for the mes
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
 import math
+import os
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -75,8 +81,8 @@ class SettleConfig:
         benchmark: 3-4x faster than one cell per taxel; the two grids rest bodies a median 2-3 cm
         apart, trunks closer than limbs). stiffness_n_m3: the settle model's foundation
         modulus; by default fitted so that body-part capsules sink into these cells as deep as into
-        the bed's press model (:func:`calibrate_stiffness`, appendix A.5; about a second, once per
-        bed and config in a process).
+        the bed's press model (:func:`calibrate_stiffness`, appendix A.5; a few seconds, once per
+        bed, config and source version on a machine: :func:`settle_stiffness` keeps it on disk).
         coupling: tie neighbouring cells with the bed's shear stiffness.
     self_collision: limbs (forearms, hands, calves, feet) collide with the other capsules.
     cone: MuJoCo's friction cone, 'pyramidal' or 'elliptic'.
@@ -173,7 +179,7 @@ class SettleModel:
     def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams):
         self.bed, self.config = bed, config
         k = config.stiffness_n_m3
-        self.stiffness_n_m3 = calibrate_stiffness(bed, config).stiffness if k is None else k
+        self.stiffness_n_m3 = settle_stiffness(bed, config) if k is None else k
         self.cells: CellBed = settle_cells(bed, config, self.stiffness_n_m3)
         self.model = build_spec(params, self.cells, config).compile()
         self.data = mujoco.MjData(self.model)
@@ -277,6 +283,70 @@ def calibrate_stiffness(bed: BedSpec | None = None, config: SettleConfig | None 
     _, press_sinks = simulate(bed, fields, o.mass_kg)
     k = bed.stiffness_n_m3
     return fit_settle_stiffness(press_sinks, settle_sink_fn(o, bed, config), bounds=(k / 10, k * 10), xtol=2e-3)
+
+
+CACHE_ENV = "PRESSUREPOSE_CACHE_DIR"
+
+
+def cache_dir() -> Path | None:
+    """Where computed set-up (the settle stiffness) is kept between runs: ``$PRESSUREPOSE_CACHE_DIR``
+    (empty: no cache), else ``$XDG_CACHE_HOME/pressurepose``, else ``~/.cache/pressurepose``."""
+    if CACHE_ENV in os.environ:
+        value = os.environ[CACHE_ENV].strip()
+        return Path(value).expanduser() if value else None
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "pressurepose"
+
+
+@lru_cache(maxsize=1)
+def _source_digest() -> str:
+    """sha256 of the simulation package's source: any change to the bed, the press or the fit
+    invalidates cached fits."""
+    h = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
+
+
+def stiffness_cache_key(bed: BedSpec, config: SettleConfig) -> str:
+    """Key of a fitted settle stiffness: everything it depends on (the bed, the config, the source of
+    :mod:`pressurepose.sim` and the versions of the libraries that compute it)."""
+    import scipy
+
+    from pressurepose import __version__
+
+    text = json.dumps({"bed": repr(bed), "config": repr(dataclasses.replace(config, stiffness_n_m3=None)),
+                       "source": _source_digest(), "pressurepose": __version__, "mujoco": mujoco.__version__,
+                       "numpy": np.__version__, "scipy": scipy.__version__}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def settle_stiffness(bed: BedSpec, config: SettleConfig) -> float:
+    """The foundation modulus (N/m^3) the settle model uses for ``bed`` and ``config``:
+    :func:`calibrate_stiffness`'s fit (about 1.5-4 s), computed once and kept in :func:`cache_dir`
+    under :func:`stiffness_cache_key`, so worker processes and later runs read it instead. A missing,
+    unreadable or unwritable cache only costs the fit."""
+    from pressurepose.files import write_json_atomic
+
+    key = stiffness_cache_key(bed, config)
+    root = cache_dir()
+    path = None if root is None else root / f"settle-stiffness-{key[:32]}.json"
+    if path is not None:
+        try:
+            cached = json.loads(path.read_text())
+            k = float(cached["stiffness_n_m3"])
+            if cached.get("key") == key and math.isfinite(k) and k > 0:
+                return k
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+    k = float(calibrate_stiffness(bed, config).stiffness)
+    if path is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_json_atomic(path, {"key": key, "stiffness_n_m3": k})
+        except OSError:
+            pass
+    return k
 
 
 def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> mujoco.MjSpec:

@@ -38,3 +38,9 @@ def crashing_producer(config, rng):
         return synthetic_producer(config, rng)
     os.close(fd)
     os._exit(1)
+
+
+def pid_recording_producer(config, rng):
+    """The synthetic producer, leaving a file named after the process that made each attempt."""
+    (Path(config.option("marker_dir")) / f"pid-{os.getpid()}").touch()
+    return synthetic_producer(config, rng)

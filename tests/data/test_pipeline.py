@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pressurepose.data.pipeline import GenerationError, generate, make_sample
+from pressurepose.data.pipeline import GenerationError, WorkUnit, generate, make_sample, plan_units
 from pressurepose.data.producers import Rejected, attempt_rng
 from pressurepose.data.store import MANIFEST, Manifest, read_shard_arrays, shard_name
 from pressurepose.data.synthetic import synthetic_producer
@@ -78,6 +78,31 @@ def test_two_workers_equal_one_worker(tmp_path):
     generate(c, tmp_path / "one", workers=1, progress=False)
     generate(c, tmp_path / "two", workers=2, progress=False)
     _assert_same(_arrays(tmp_path / "one"), _arrays(tmp_path / "two"))
+
+
+def test_units_split_one_shard_so_every_worker_has_work():
+    c = small_config(count=64, shard_size=256)
+    assert plan_units(c) == [WorkUnit(c, 0)]
+    units = plan_units(c, workers=2)
+    assert len(units) >= 8 and all(u.shard == 0 for u in units)
+    assert [i for u in units for i in u.indices] == list(range(64))  # contiguous, in order, no overlap
+    sizes = [len(u.indices) for u in units]
+    assert max(sizes) - min(sizes) <= 1
+    several = plan_units(small_config(count=30, shard_size=8), [1, 3], workers=2)
+    assert [i for u in several for i in u.indices] == list(range(8, 16)) + list(range(24, 30))
+
+
+def test_two_workers_share_a_single_shard_and_write_the_same_bytes(tmp_path):
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    c = small_config(count=24, shard_size=256, producer="tests.data.helpers:pid_recording_producer",
+                     options={"marker_dir": str(marks), "sleep_ms": 20})
+    generate(c, tmp_path / "one", workers=1, progress=False)
+    for p in marks.iterdir():
+        p.unlink()
+    generate(c, tmp_path / "two", workers=2, progress=False)
+    assert len(list(marks.iterdir())) == 2  # both worker processes made samples of the one shard
+    assert (tmp_path / "one" / shard_name(0)).read_bytes() == (tmp_path / "two" / shard_name(0)).read_bytes()
 
 
 def test_failed_unit_is_retried_not_dropped(tmp_path):

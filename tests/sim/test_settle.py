@@ -291,3 +291,38 @@ def test_posture_classes_from_the_root():
     assert posture_class(poses[3]) == "left_lateral"
     with pytest.raises(BadInput):
         posture_class(np.zeros(5))
+
+
+# ------------------------------------------------------------------------------ the stiffness cache
+
+def test_settle_stiffness_is_fitted_once_then_read_from_the_cache(tmp_path, monkeypatch):
+    import pressurepose.sim.settle as settle_module
+
+    calls = []
+
+    def fake_fit(bed, config):
+        calls.append(bed.stiffness_n_m3)
+        return type("Fit", (), {"stiffness": bed.stiffness_n_m3 / 3})()
+
+    monkeypatch.setattr(settle_module, "calibrate_stiffness", fake_fit)
+    monkeypatch.setenv(settle_module.CACHE_ENV, str(tmp_path / "cache"))
+    k = settle_module.settle_stiffness(BED, FAST)
+    assert k == BED.stiffness_n_m3 / 3 and calls == [BED.stiffness_n_m3]
+    assert settle_module.settle_stiffness(BED, FAST) == k and len(calls) == 1  # read back, exactly
+    softer = get_bed(stiffness_n_m3=BED.stiffness_n_m3 / 2)  # another bed: another key, fitted again
+    assert settle_module.settle_stiffness(softer, FAST) == softer.stiffness_n_m3 / 3 and len(calls) == 2
+    other = dataclasses.replace(FAST, taxels_per_cell=1)
+    assert settle_module.stiffness_cache_key(BED, other) != settle_module.stiffness_cache_key(BED, FAST)
+    files = sorted((tmp_path / "cache").iterdir())
+    assert len(files) == 2
+    for f in files:
+        f.write_text("{not json")  # a damaged cache file is fitted again, not trusted
+    assert settle_module.settle_stiffness(BED, FAST) == k and len(calls) == 3
+    monkeypatch.setenv(settle_module.CACHE_ENV, "")  # no cache at all
+    assert settle_module.settle_stiffness(BED, FAST) == k and len(calls) == 4
+
+
+def test_cached_stiffness_is_the_fit():
+    from pressurepose.sim.settle import settle_stiffness
+
+    assert settle_stiffness(BED, FAST) == calibrate_stiffness(BED, FAST).stiffness
