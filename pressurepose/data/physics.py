@@ -23,10 +23,12 @@ def _setup(gender: str, mat: str):
 
 def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Sample | Rejected:
     """One attempt at a labelled sample with the full physics; all randomness from ``rng``."""
+    from pressurepose.pose.config import SamplerConfig
     from pressurepose.sim.simulate import simulate_one
 
     body, bed = _setup(config.gender, config.mat)
-    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed)
+    sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs)
+    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler)
     if isinstance(sim, str):
         return Rejected(sim)
     betas = np.zeros(10)
