@@ -28,7 +28,12 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
 
     body, bed = _setup(config.gender, config.mat)
     sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs)
-    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler)
+    conditions = None
+    if config.randomize:
+        from pressurepose.sim.randomize import draw_conditions
+
+        conditions = draw_conditions(rng, bed)
+    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler, conditions)
     if isinstance(sim, str):
         return Rejected(sim)
     betas = np.zeros(10)
@@ -36,4 +41,5 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
     img = sim.image
     return Sample(pressure=img.pressure, force=img.force, depth=img.depth, contact=img.contact, betas=betas,
                   pose=sim.pose, transl=sim.transl, joints=sim.joints, gender=config.gender, mass=sim.mass,
-                  height=sim.height, partition=config.partition)
+                  height=sim.height, partition=config.partition,
+                  conditions=None if conditions is None else conditions.as_array())

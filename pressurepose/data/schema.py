@@ -24,6 +24,8 @@ field          shape / type    meaning
 ``height``     float           m
 ``partition``  str             one of :data:`PARTITIONS`
 ``index``      int             sample index within its dataset (set by the pipeline)
+``conditions`` (7,) float32    only in randomised datasets: the bed the sample was pressed on
+                               (``pressurepose.sim.randomize.CONDITION_NAMES``); else None
 ============== =============== ===========================================================
 
 A dataset on disk is a pure function of its :class:`GenerationConfig`: see ``pipeline.py``.
@@ -91,6 +93,7 @@ class Sample:
     height: float
     partition: str
     index: int = -1
+    conditions: np.ndarray | None = None
 
     def validate(self, shape: tuple[int, int] | None = None, *, what: str = "sample") -> "Sample":
         """Check shapes, dtypes and finiteness; return self. ``shape`` is the mat's (rows, cols).
@@ -114,6 +117,10 @@ class Sample:
                 raise BadInput(f"{what}: {name} contains NaN or infinite values")
         if np.any(np.asarray(self.pressure) < 0) or np.any(np.asarray(self.force) < 0):
             raise BadInput(f"{what}: pressure and force must be >= 0")
+        if self.conditions is not None:
+            c = np.asarray(self.conditions, dtype=np.float64)
+            if c.shape != (7,) or not np.all(np.isfinite(c)):
+                raise BadInput(f"{what}: conditions has shape {c.shape}; expected 7 finite values")
         check_gender(self.gender)
         check_partition(self.partition)
         return self

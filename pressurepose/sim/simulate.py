@@ -26,7 +26,9 @@ HANG_DEPTH_M = 0.1
 class Simulated:
     """A settled, pressed body: labels (betas (S,), pose (72,), transl (3,), joints (24, 3) bed frame,
     mass kg, height m) and ``image``, the :class:`~pressurepose.sim.press.PressResult`
-    (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest."""
+    (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest;
+    ``conditions``: the randomised bed it was pressed on (:class:`~pressurepose.sim.randomize.Conditions`),
+    or None (the nominal bed)."""
 
     betas: np.ndarray
     pose: np.ndarray
@@ -36,6 +38,7 @@ class Simulated:
     height: float
     image: object
     settle_steps: int
+    conditions: object = None
 
 
 def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
@@ -68,7 +71,7 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
 
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
-                 limbs_on_bed: bool = False, sampler=None) -> Simulated | str:
+                 limbs_on_bed: bool = False, sampler=None, conditions=None) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
     pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
     (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from ``rng``. ``sampler``: the
@@ -87,13 +90,17 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
     if not (SamplerConfig() if sampler is None else sampler).hanging_limbs and limb_off_bed(joints[0], bed):
         return "limb_off_bed"
+    pose, transl, press_bed = rest.pose, rest.transl, bed
+    if conditions is not None:
+        press_bed = conditions.bed(bed)
+        pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, conditions.body_motion(bed))
+        verts, _ = body.forward(rest.betas, pose, transl)
     try:
-        image = press(verts[0], body.faces, rest.mass_kg, bed,
-                      bones=body_bones(body, rest.betas, rest.pose, rest.transl))
+        image = press(verts[0], body.faces, rest.mass_kg, press_bed, bones=body_bones(body, rest.betas, pose, transl))
     except PressFailed:
         return "press_failed"
-    pose, transl = apply_rigid_motion(body, rest.betas, rest.pose, rest.transl, image.transform)
+    pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
                      mass=float(rest.mass_kg), height=float(body.height(rest.betas)[0]), image=image,
-                     settle_steps=int(rest.steps))
+                     settle_steps=int(rest.steps), conditions=conditions)
