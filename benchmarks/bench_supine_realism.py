@@ -129,6 +129,7 @@ def main(argv=None) -> None:
     ap.add_argument("--json", help="write this run's figures here")
     ap.add_argument("--table", nargs="*", default=[], help="LABEL=FILE.json runs to tabulate")
     ap.add_argument("--write", action="store_true", help="write the table to docs/RESULTS.md")
+    ap.add_argument("--note", default="", help="a paragraph written under the table")
     args = ap.parse_args(argv)
     if args.table:
         runs = [(s.split("=", 1)[0], json.load(open(s.split("=", 1)[1]))) for s in args.table]
@@ -141,7 +142,7 @@ def main(argv=None) -> None:
             write_section("supine_realism", f"### Supine realism (issue 12): simulated `{n['partition']}` "
                           f"bodies, {n['bodies']} per run, both genders, seed {n['seed']}\n\n"
                           f"`python -m benchmarks.bench_supine_realism`; {platform.processor() or platform.machine()}, "
-                          f"{os.cpu_count()} CPUs, {datetime.date.today()}.\n\n{text}\n")
+                          f"{os.cpu_count()} CPUs, {datetime.date.today()}.\n\n{text}\n\n{args.note}\n")
         return
     res = run(args.bodies, args.seed)
     print(json.dumps({k: v for k, v in res.items() if k != "rows"}, indent=1))

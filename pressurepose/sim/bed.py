@@ -30,7 +30,7 @@ from pressurepose.errors import BadInput
 
 INCH = 0.0254
 # Soft tissue's Young's modulus (Pa) for the press; see docs/physics.md for how it was chosen.
-TISSUE_MODULUS_PA = 5.0e3
+TISSUE_MODULUS_PA = 3.0e3
 
 
 def _check_finite(name: str, v) -> None:

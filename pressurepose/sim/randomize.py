@@ -13,7 +13,7 @@ Ranges (:class:`RandomizationRanges`) and why:
   soft to firm (indentation force deflection roughly 2-3x from soft to firm), and the real data
   differ: on one mat the PMD experiment I supine images (13 people) cover 1217-1531 taxels, and
   the issue's BodiTrak images were taken on a foam and an air mattress.
-* tissue modulus: log-uniform 2.5-10 kPa, a factor of two about the default 5 kPa, inside the
+* tissue modulus: log-uniform 1.5-6 kPa, a factor of two about the default 3 kPa, inside the
   1-30 kPa that in vivo indentation of relaxed muscle and fat reports.
 * sensor gain: U(0.75, 1.25) on the sensor law's C1 and C2: the summed raw reading per kg of body
   weight varies with a coefficient of variation of 0.25 over the PMD experiment I images (13
@@ -55,7 +55,7 @@ class RandomizationRanges:
     (mmHg) (uniform), and the mat's offset (m, each axis) and rotation (rad) (uniform +-)."""
 
     stiffness_factor: tuple[float, float] = (0.6, 1.6)
-    tissue_modulus_pa: tuple[float, float] = (2.5e3, 1.0e4)
+    tissue_modulus_pa: tuple[float, float] = (1.5e3, 6.0e3)
     sensor_gain: tuple[float, float] = (0.75, 1.25)
     sensor_threshold_mmhg: tuple[float, float] = (0.0, 4.0)
     mat_offset_m: float = 0.05

@@ -18,7 +18,7 @@ def test_draws_lie_in_their_ranges_and_follow_the_generator():
     draws = np.array([draw_conditions(np.random.default_rng(i), bed).as_array() for i in range(300)])
     k, e, gain, thr, dx, dy, turn = draws.T
     assert np.all((k >= 0.6 * bed.stiffness_n_m3) & (k <= 1.6 * bed.stiffness_n_m3))
-    assert np.all((e >= 2.5e3) & (e <= 1e4)) and np.all((gain >= 0.75) & (gain <= 1.25))
+    assert np.all((e >= 1.5e3) & (e <= 6e3)) and np.all((gain >= 0.75) & (gain <= 1.25))
     assert np.all((thr >= 0) & (thr <= 4)) and np.abs(draws[:, 4:6]).max() <= 0.05
     assert np.abs(turn).max() <= math.radians(3) and np.ptp(turn) > math.radians(4)
     assert abs(np.median(np.log(k / bed.stiffness_n_m3)) - np.log(0.6 * 1.6) / 2) < 0.1  # log-uniform
