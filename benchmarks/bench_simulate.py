@@ -35,7 +35,7 @@ PARTITIONS = ("general", "general_supine", "prone_hands_up")
 RUNS = (("general", "general", "proximal"), ("general, --height-reference bed", "general", "bed"),
         ("general_supine", "general_supine", "proximal"), ("prone_hands_up", "prone_hands_up", "proximal"))
 GENDERS = ("female", "male")
-CAUSES = tuple(s for s in STATUSES if s != "settled") + ("press_failed",)
+CAUSES = tuple(s for s in STATUSES if s != "settled") + ("press_failed", "limb_off_bed")
 GOAL = 2.0
 
 

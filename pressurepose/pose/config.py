@@ -35,12 +35,14 @@ class SamplerConfig:
     beta_range) (19 %); see :func:`pressurepose.pose.root.draw_betas`.
     placement: 'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max, the pelvis N(0,
     across_sd_m) across the mattress's centre line and the crown head_gap_m +- along_sd_m from its
-    head end; 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the
+    head end, then, once the limbs are drawn, slid toward the foot as far as needed (and the foot
+    end allows) to keep every joint head_gap_m from the head end (arms above the head); 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the
     paper's table says pi/3) and the pelvis U(-shift_max, shift_max) across and along from the
     mattress's centre (see :func:`pressurepose.pose.root.draw_placement`).
-    hanging_limbs: False (default): every limb starts over the mattress (the ``limbs_on_bed`` rule
-    applies whatever the caller's flag) and a body resting with a limb joint beyond the mattress's
-    outline is rejected (``limb_off_bed``); True: limbs may hang over the edge (the paper's
+    hanging_limbs: False (default): every limb starts over the mattress, its joints at least
+    side_margin_m from the mattress's sides (the ``limbs_on_bed`` rule applies whatever the
+    caller's flag; limbs started at the edge slide over it while settling), and a body resting with
+    a limb hanging over the edge is rejected (``limb_off_bed``, :mod:`pressurepose.sim.simulate`); True: limbs may hang over the edge (the paper's
     partitions without "plo"). height_band: allowed |distal - proximal| height (the
     public code's 0.2 m; the paper's text says 10 cm).
     height_reference: what the distal joint's height is measured from. 'proximal' (default, the
@@ -73,6 +75,7 @@ class SamplerConfig:
     head_gap_m: float = 0.1
     along_sd_m: float = 0.03
     hanging_limbs: bool = False
+    side_margin_m: float = 0.1
     height_band: float = 0.2
     height_reference: str = "proximal"
     bed_height_band: tuple[float, float] = (-0.1, 0.3)
@@ -88,7 +91,7 @@ class SamplerConfig:
 
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
-                  "yaw_sd", "across_sd_m", "head_gap_m", "along_sd_m"):
+                  "yaw_sd", "across_sd_m", "head_gap_m", "along_sd_m", "side_margin_m"):
             v = getattr(self, f)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")

@@ -20,7 +20,7 @@ from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.limbs import LIMBS, limb_geometry, limb_lengths, to_world
 from pressurepose.pose.limits import JointLimits, joint_limits
 from pressurepose.pose.partitions import Partition, arm_bin, leg_bin
-from pressurepose.pose.root import draw_betas, draw_placement, root_axis_angle, world_rotation
+from pressurepose.pose.root import draw_betas, draw_placement, root_axis_angle, slide_along_bed, world_rotation
 from pressurepose.pose.samples import COUNTERS, LIMB_CAUSES
 
 Q = Y_UP_TO_Z_UP
@@ -169,6 +169,8 @@ class Run:
                  _NOT_BEHIND_HEAD: no}
         if self.on_bed:
             x0, x1, y0, y1 = cfg.mattress
+            if not cfg.hanging_limbs:  # keep clear of the sides: a limb at the edge slides off as it settles
+                x0, x1 = x0 + cfg.side_margin_m, x1 - cfg.side_margin_m
             pts = pos[:, None, [limb.chain.index(j) for j in limb.on_bed]]
             xy = to_world(pts, self.M[bodies], self.rest[bodies, 0], self.pelvis[bodies])[:, 0, :, :2]
             inside = (xy[..., 0] > x0) & (xy[..., 0] < x1) & (xy[..., 1] > y0) & (xy[..., 1] < y1)
@@ -324,9 +326,10 @@ class Run:
                     self.counts[i, _COL["bodies_redrawn"]] += 1
                 continue
             lift = self.cfg.clearance - np.min(ends[..., 2] - caps.radius[:, None])
+            slide = slide_along_bed(pos[p], self.cfg)
             self.pose[i] = pose[p]
-            self.transl[i] = transl[p] + [0.0, 0.0, lift]
-            self.joints[i] = pos[p] + [0.0, 0.0, lift]
+            self.transl[i] = transl[p] + [0.0, slide, lift]
+            self.joints[i] = pos[p] + [0.0, slide, lift]
             accepted[p] = True
         return accepted
 

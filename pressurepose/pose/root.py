@@ -94,3 +94,16 @@ def draw_placement(rng: np.random.Generator, config, crown_m: float) -> tuple[fl
     head = world_rotation(0.0, yaw)[0, :, 2]  # the body's head direction on the bed
     y = config.mattress[2] + gap - crown_m * head[1]
     return float(yaw), np.array([centre[0] + across, y])
+
+
+def slide_along_bed(joints: np.ndarray, config) -> float:
+    """How far (m, toward the foot) to slide a 'centred' body whose limbs were drawn with joints
+    (24, 3) bed frame so that no limb joint lies within ``head_gap_m`` of the mattress's head end
+    (arms raised above the head: people lying so lie lower in the bed), as far as the room left
+    at the foot end (5 cm kept clear past the lowest joint) allows. 0 for the 'uniform' placement."""
+    if config.placement != "centred":
+        return 0.0
+    y0, y1 = config.mattress[2], config.mattress[3]
+    need = y0 + config.head_gap_m - joints[:, 1].min()
+    room = y1 - 0.05 - joints[:, 1].max()
+    return float(np.clip(need, 0.0, max(room, 0.0)))

@@ -1,7 +1,8 @@
-"""Physics simulation #2: press a rigid body mesh into the bed and read the pressure mat.
+"""Physics simulation #2: press a body mesh into the bed and read the pressure mat.
 
 The body's lower surface is sampled on a fine grid (each taxel split into cells of about
-``bed.press_cell_m``), the body is treated as rigid and moved by a vertical shift and two small
+``bed.press_cell_m``); given its bones, its surface yields as soft tissue in series with the
+mattress (:mod:`pressurepose.sim.tissue`). The body is moved by a vertical shift and two small
 tilts about its centre of mass until the foundation (:mod:`pressurepose.sim.foundation`) carries
 exactly its weight with no net moment; the cell forces are summed per taxel and read through the
 sensor model (:mod:`pressurepose.sim.sensor`).
@@ -204,14 +205,14 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
 
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,
-          bones: Bones | None = None, margin_m: float | None = None, tol: float = 1e-7, max_linear_tilt: float = 0.01,
-          max_passes: int = 4) -> PressResult:
-    """Rest a rigid body mesh on the bed and read the pressure mat.
+          bones: Bones | None = None, margin_m: float | None = None, tol: float = 1e-7,
+          max_linear_tilt: float = 0.01, max_passes: int = 4) -> PressResult:
+    """Rest a body mesh (rigid, or with soft tissue over its bones) on the bed and read the mat.
 
     vertices (V, 3) bed frame, metres, at the body's resting height or above it (the press finds
     the height; surface deeper than the mattress's bottom hangs beside it: see the module doc);
     faces (F, 3) int, a closed surface (either winding); mass_kg > 0. ``com_xy`` overrides the
-    centre of mass's x, y (default: the mesh's volume centroid). ``margin_m``: the Pasternak
+    centre of mass's x, y (default: the mesh's volume centroid).
     ``bones`` (K segments in the same frame, :func:`pressurepose.sim.tissue.body_bones`): the body's
     surface yields over them as soft tissue in series with the mattress (modulus
     ``bed.tissue_modulus_pa``); None presses a rigid body. ``margin_m``: the Pasternak

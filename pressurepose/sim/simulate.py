@@ -74,8 +74,11 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
                  limbs_on_bed: bool = False, sampler=None, conditions=None) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
     pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
-    (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from ``rng``. ``sampler``: the
-    pose sampler's :class:`~pressurepose.pose.config.SamplerConfig` (default: its defaults)."""
+    (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from
+    ``rng``. ``sampler``: the pose sampler's :class:`~pressurepose.pose.config.SamplerConfig`
+    (default: its defaults). ``conditions`` (:class:`~pressurepose.sim.randomize.Conditions`):
+    settle on ``bed``, then press and read the body on ``conditions.bed(bed)``, the mat moved under
+    it (the labels are in that mat's frame)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press

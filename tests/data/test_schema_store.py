@@ -166,7 +166,8 @@ def test_sampler_settings_are_in_the_config_and_a_legacy_manifest_reads_as_the_p
     assert (old.shapes, old.placement, old.hanging_limbs, old.randomize) == ("uniform", "uniform", True, False)
     # the legacy config keeps the seed key it always had; every other setting gets its own stream
     assert old.stream_key == int.from_bytes(__import__("hashlib").sha256(b"general|f|0").digest()[:4], "little")
-    keys = {old.stream_key, new.stream_key, GenerationConfig(partition="general", gender="f", randomize=True).stream_key,
+    keys = {old.stream_key, new.stream_key,
+            GenerationConfig(partition="general", gender="f", randomize=True).stream_key,
             GenerationConfig(partition="general", gender="f", placement="uniform").stream_key}
     assert len(keys) == 4
     assert GenerationConfig.from_json(new.to_json()) == new

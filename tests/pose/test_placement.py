@@ -53,10 +53,22 @@ def test_default_placement_centres_the_body_with_the_head_at_the_top(female, cen
     assert abs(np.median(crown) - 0.1) < 0.02 and crown.std() < 0.05
 
 
-def test_default_limbs_start_over_the_mattress(centred):
+def test_default_limbs_start_over_the_mattress_clear_of_its_sides(centred):
     x0, x1, y0, y1 = DEFAULT_MATTRESS
+    m = SamplerConfig().side_margin_m
     p = centred.joints[:, LIMB_JOINTS, :2]
-    assert np.all((p[..., 0] >= x0) & (p[..., 0] <= x1) & (p[..., 1] >= y0) & (p[..., 1] <= y1))
+    assert np.all((p[..., 0] >= x0 + m) & (p[..., 0] <= x1 - m) & (p[..., 1] >= y0) & (p[..., 1] <= y1))
+
+
+def test_arms_above_the_head_slide_the_body_down_the_bed(female):
+    """prone_hands_up: the hands, not the crown, keep head_gap_m from the head end (as far as the
+    foot end allows)."""
+    b = sample_bodies("prone_hands_up", "f", 30, 8, body=female)
+    _, _, y0, y1 = DEFAULT_MATTRESS
+    gap = SamplerConfig().head_gap_m
+    top, bottom = b.joints[:, :, 1].min(1), b.joints[:, :, 1].max(1)
+    assert np.all((top >= y0 + gap - 1e-9) | (bottom >= y1 - 0.05 - 1e-9))
+    assert np.median(top - y0) < gap + 0.03  # slid no further than needed
 
 
 def test_paper_placement_is_uniform_about_the_mattress_centre(female):

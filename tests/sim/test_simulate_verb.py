@@ -69,6 +69,7 @@ def test_no_limb_hangs_over_the_edge_unless_asked(tmp_path, capsys):
     over = (j[..., 0] >= x0) & (j[..., 0] <= x1) & (j[..., 1] >= y0) & (j[..., 1] <= y1)
     assert np.all(over | (j[..., 2] > -HANG_DEPTH_M))
     assert main(["sample", "--partition", "supine_straight_limbs", "--gender", "m", "--count", "40", "--seed", "3",
-                 "--hanging-limbs", "--placement", "uniform", "--shapes", "uniform", "--out", str(tmp_path / "p.npz")]) == 0
+                 "--hanging-limbs", "--placement", "uniform", "--shapes", "uniform",
+                 "--out", str(tmp_path / "p.npz")]) == 0
     j = np.load(tmp_path / "p.npz")["joints"][:, list(LIMB_JOINTS)]
     assert np.any((j[..., 0] < x0) | (j[..., 0] > x1))  # the paper's sampler lets limbs start beyond the sides
