@@ -45,7 +45,7 @@ from pressurepose.data.schema import GenerationConfig
 PARTITIONS = (("general", False), ("general_supine", False), ("hands_behind_head", True),
               ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False))
 GENDERS = ("f", "m")
-CAUSES = ("not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision", "press_failed")
+CAUSES = ("not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision", "press_failed", "limb_off_bed")
 GOAL = 3.0
 
 

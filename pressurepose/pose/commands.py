@@ -10,6 +10,26 @@ from pressurepose.pose.partitions import ALIASES, PARTITIONS
 MAX_COUNT = 100_000  # bodies per file: about 1.4 kB each in memory, and the file is written at the end
 
 
+def add_body_arguments(p: argparse.ArgumentParser) -> None:
+    """The sampler's shape, placement and hanging-limb options (shared by sample, simulate, generate)."""
+    p.add_argument("--shapes", choices=("normal", "uniform"), default="normal",
+                   help="body shapes: betas ~ N(0, 1) within +-3, SMPL's population (normal, default), or "
+                        "U(-3, 3), the paper's (uniform: a sixth of the bodies are extremely thin or heavy)")
+    p.add_argument("--placement", choices=("centred", "uniform"), default="centred",
+                   help="where bodies lie: centred across the bed (sd 3 cm), crown about 10 cm from the head "
+                        "end, yaw sd 0.1 rad (centred, default), or the paper's uniform +-0.2 m shift and "
+                        "+-pi/6 yaw from the mattress centre (uniform)")
+    p.add_argument("--hanging-limbs", action="store_true",
+                   help="let limbs start beyond the mattress and rest hanging over its edge (the paper's "
+                        "partitions without limbs-on-bed); default: limbs start over the mattress and a body "
+                        "resting with a limb hanging over the edge is rejected")
+
+
+def body_settings(args) -> dict:
+    """SamplerConfig / GenerationConfig keywords from :func:`add_body_arguments`' options."""
+    return {"shapes": args.shapes, "placement": args.placement, "hanging_limbs": bool(args.hanging_limbs)}
+
+
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:
     p.description = (
         "Draw initial bodies (shape, pose, root on the bed) by rejection sampling as in the paper's "
@@ -31,6 +51,7 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
                    help="opt-in: reject limb candidates with a capsule more than M metres below the surface "
                         "the body lies on (e.g. 0.05; off by default, as in the paper and its public code, "
                         "whose supine marginals it would bias toward raised legs)")
+    add_body_arguments(p)
     p.add_argument("--count", type=int, required=True, help=f"number of bodies (at most {MAX_COUNT})")
     p.add_argument("--seed", type=seed_arg, required=True, help="random seed (whole number >= 0)")
     p.add_argument("--model", default=None,
@@ -62,7 +83,8 @@ def run_sample(args) -> int:
     partition = get_partition(args.partition).name
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
-    config = SamplerConfig(height_reference=args.height_reference, max_limb_sink=args.max_limb_sink)
+    config = SamplerConfig(height_reference=args.height_reference, max_limb_sink=args.max_limb_sink,
+                           **body_settings(args))
     t0 = time.perf_counter()
     parts = []
     with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK) as bar:
