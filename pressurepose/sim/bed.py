@@ -29,6 +29,8 @@ import numpy as np
 from pressurepose.errors import BadInput
 
 INCH = 0.0254
+# Soft tissue's Young's modulus (Pa) for the press; see docs/physics.md for how it was chosen.
+TISSUE_MODULUS_PA = 5.0e3
 
 
 def _check_finite(name: str, v) -> None:
@@ -149,6 +151,9 @@ class BedSpec:
         (see :mod:`pressurepose.sim.sensor`).
     press_cell_m: target size of the cells the press simulation resolves the body's lower surface
         and the foundation on; each taxel is split into ceil(pitch / press_cell_m) cells per side.
+    tissue_modulus_pa: Young's modulus E of the body's soft tissue, Pa: where the press is given
+        the body's bones, the tissue of depth t over them is a spring E A / t per cell area A in
+        series with the mattress (:mod:`pressurepose.sim.tissue`).
     """
 
     mat: MatSpec = dataclasses.field(default_factory=lambda: get_mat(DEFAULT_MAT))
@@ -165,12 +170,13 @@ class BedSpec:
     sensor_c1: float = 1.0
     sensor_c2: float = 0.0
     press_cell_m: float = 0.01
+    tissue_modulus_pa: float = TISSUE_MODULUS_PA
 
     def __post_init__(self):
         if not isinstance(self.mat, MatSpec):
             raise BadInput(f"bed mat is {type(self.mat).__name__}; expected a MatSpec (see get_mat)")
         for field in ("mattress_width_m", "mattress_length_m", "mattress_thickness_m", "stiffness_n_m3",
-                      "press_cell_m"):
+                      "press_cell_m", "tissue_modulus_pa"):
             _check_positive(f"bed {field}", getattr(self, field))
         for field in ("coupling_n_m", "damping_s", "friction"):
             _check_non_negative(f"bed {field}", getattr(self, field))

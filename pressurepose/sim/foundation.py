@@ -46,30 +46,35 @@ def rigid_jacobian(x: np.ndarray, y: np.ndarray, com_xy) -> np.ndarray:
     return np.stack([np.ones_like(x), x - com_xy[0], y - com_xy[1]], axis=1)
 
 
-def level_sink(b0: np.ndarray, k_cell: float, weight_n: float) -> float:
+def level_sink(b0: np.ndarray, k_cell, weight_n: float) -> float:
     """The shift s (m) down at which cells with bottoms ``b0`` (n,) on independent springs
-    ``k_cell`` (N/m) carry ``weight_n`` without turning: ``k sum max(0, s - b0) = W``, exactly."""
-    # the force is piecewise linear in s: when s equals order[m] it is k (m s - sum_{i<m} order[i])
-    order = np.sort(b0)
-    n = np.arange(1, len(order) + 1)
-    csum = np.cumsum(order)
-    f_at = k_cell * (n[:-1] * order[1:] - csum[:-1])
+    ``k_cell`` (N/m, a number or (n,)) carry ``weight_n`` without turning:
+    ``sum k max(0, s - b0) = W``, exactly."""
+    # the force is piecewise linear in s: when s equals order[m] it is K_m s - sum_{i<m} k_i order[i]
+    idx = np.argsort(b0)
+    order = b0[idx]
+    k = np.broadcast_to(np.asarray(k_cell, dtype=np.float64), b0.shape)[idx]
+    ksum, kbsum = np.cumsum(k), np.cumsum(k * order)
+    f_at = ksum[:-1] * order[1:] - kbsum[:-1]
     m = int(np.searchsorted(f_at, weight_n)) + 1  # number of cells in contact at the answer
-    return float((weight_n / k_cell + csum[m - 1]) / m)
+    return float((weight_n + kbsum[m - 1]) / ksum[m - 1])
 
 
-def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell: float, weight_n: float,
+def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell, weight_n: float,
                   max_slope: float = 0.3, max_iter: int = 100) -> ContactSolution:
-    """Rigid body on independent springs ``k_cell`` (N/m) under cells with bottoms ``b0`` (n,).
+    """Rigid body on independent springs ``k_cell`` (N/m, a number or one per cell (n,)) under
+    cells with bottoms ``b0`` (n,).
 
     Newton's method on the convex, piecewise-quadratic energy in q; exact to round-off.
     """
     q = np.array([-level_sink(b0, k_cell, weight_n), 0.0, 0.0])
     target = np.array([weight_n, 0.0, 0.0])
 
+    k_cell = np.broadcast_to(np.asarray(k_cell, dtype=np.float64), b0.shape)
+
     def energy(qq):
         d = np.maximum(-(b0 + jac @ qq), 0.0)
-        return 0.5 * k_cell * d @ d + weight_n * qq[0]
+        return 0.5 * (k_cell * d) @ d + weight_n * qq[0]
 
     scale = np.array([weight_n, weight_n, weight_n])  # N, N m (lever arms are ~1 m)
     for it in range(max_iter):
@@ -77,7 +82,7 @@ def solve_winkler(b0: np.ndarray, jac: np.ndarray, k_cell: float, weight_n: floa
         lam = k_cell * d
         grad = target - jac.T @ lam
         on = d > 0
-        hess = k_cell * jac[on].T @ jac[on]
+        hess = (k_cell[on, None] * jac[on]).T @ jac[on]
         hess += 1e-12 * np.trace(hess) * np.eye(3)
         step = -np.linalg.solve(hess, grad)
         # converged: balanced to 1e-10 of the weight, or moving no cell by 1 nm (round-off)
@@ -152,7 +157,8 @@ class PasternakFoundation:
 
 def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
                     found: PasternakFoundation, weight_n: float, lam0: np.ndarray,
-                    tol: float = 1e-7, max_iter: int = 1000, max_slope: float = 0.3) -> ContactSolution:
+                    tol: float = 1e-7, max_iter: int = 1000, max_slope: float = 0.3,
+                    compliance: np.ndarray | None = None) -> ContactSolution:
     """Rigid body on a Pasternak foundation, by preconditioned conjugate gradients over the forces.
 
     b0 (n,) bottoms of the candidate cells, jac (n, 3) their rigid Jacobian rows, flat_index (n,)
@@ -161,8 +167,15 @@ def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
     with the load and both moments fixed; on the cells in contact, K itself (restricted to them and
     projected onto the balanced directions) preconditions the CG steps, which leaves only the
     contact edge to iterate on. Stops when the forces change by less than ``tol * W`` in a step.
+
+    ``compliance`` (n,) m/N: a spring in series between the body and each cell (soft tissue), so
+    the flexibility becomes ``K^-1 + diag(compliance)``; the preconditioner is then
+    ``S K S`` with ``S = diag(1 / sqrt(1 + k_cell c))``, exact for a Winkler foundation.
     """
     size = found.shape[0] * found.shape[1]
+    comp = np.zeros(len(b0)) if compliance is None else np.asarray(compliance, dtype=np.float64)
+    scale = 1.0 / np.sqrt(1.0 + found.k_cell * comp)
+    k_eff = found.k_cell / (1.0 + found.k_cell * comp)
     target = np.array([weight_n, 0.0, 0.0])
 
     def on_grid(v):  # (..., n) -> (..., ny, nx), zero off the candidate cells
@@ -171,12 +184,12 @@ def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
         return g.reshape(v.shape[:-1] + found.shape)
 
     def flex(v):
-        return found.flexibility(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index]
+        return found.flexibility(on_grid(v)).reshape(v.shape[:-1] + (size,))[..., flat_index] + comp * v
 
     k_cand = found.stiffness_matrix(flat_index)
 
-    def stiff(v, on):  # K restricted to the contact cells, v (..., n)
-        return np.where(on, (k_cand @ np.where(on, v, 0.0).T).T, 0.0)
+    def stiff(v, on):  # the preconditioner S K S restricted to the contact cells, v (..., n)
+        return np.where(on, scale * (k_cand @ np.where(on, scale * v, 0.0).T).T, 0.0)
 
     lam = _balance(np.maximum(lam0, 0.0), jac, target)
     w = flex(lam)
@@ -209,7 +222,7 @@ def solve_pasternak(b0: np.ndarray, jac: np.ndarray, flat_index: np.ndarray,
             w = w - tau * ht
         else:
             lam = np.maximum(step, 0.0)
-            lam[enter] = -gap[enter] * found.k_cell
+            lam[enter] = -gap[enter] * k_eff[enter]
             lam = _balance(lam, jac, target)
             w = flex(lam)
         if np.abs(q[1:]).max() > 10 * max_slope:  # heading for a tip-over

@@ -33,6 +33,7 @@ from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, level
                                          solve_pasternak, solve_winkler)
 from pressurepose.sim.raster import lower_surface
 from pressurepose.sim.sensor import GRAVITY, read_sensor
+from pressurepose.sim.tissue import Bones, tissue_depth
 
 # Depth reported for taxels with no part of the body above them: far above any resting body, so
 # "contact = depth < 0" and a sunk-depth target max(0, -depth) both read "nothing here".
@@ -152,23 +153,28 @@ def mesh_centroid(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, np.nd
 
 @dataclass(frozen=True)
 class Heightfield:
-    """A rigid body's lower surface on the press grid of a bed: ``bottom`` (ny, nx) heights (m,
-    ``+inf`` where no body) and its centre of mass ``com`` (3,). Depends only on the geometry of
-    the bed (mat, mattress, press_cell_m), not on its stiffness or sensor constants."""
+    """A body's lower surface on the press grid of a bed: ``bottom`` (ny, nx) heights (m,
+    ``+inf`` where no body), its centre of mass ``com`` (3,) and, for a body with soft tissue,
+    ``tissue`` (ny, nx) the tissue's depth over the bone (m, 0 where no body; None: rigid). Depends
+    only on the geometry of the bed (mat, mattress, press_cell_m), not on its stiffness or sensor
+    constants."""
 
     bottom: np.ndarray
     com: np.ndarray
     grid: PressGrid
+    tissue: np.ndarray | None = None
 
 
-def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None) -> Heightfield:
+def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None,
+                     bones: Bones | None = None) -> Heightfield:
     """Sample a closed mesh's lower surface on the press grid of ``bed``.
 
     vertices (V, 3) bed frame, metres; faces (F, 3) int, a closed surface (either winding).
     ``com_xy`` overrides the centre of mass's x, y (default: the mesh's volume centroid).
     Surface deeper than the mattress's bottom (``-bed.mattress_thickness_m``) is beside the
     mattress (a limb hanging over its edge) and is left out: the cells over it read the body's
-    lowest surface above that depth, or nothing.
+    lowest surface above that depth, or nothing. ``bones`` (same frame): the body has soft tissue
+    over them (:mod:`pressurepose.sim.tissue`); None: the body is rigid.
     """
     bed = _check_bed(bed)
     verts, tris = _check_mesh(vertices, faces)
@@ -186,11 +192,19 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
     down = tris[normal_z * np.sign(volume) < 0]
     grid = press_grid(bed)
     bottom = lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape, floor=-bed.mattress_thickness_m)
-    return Heightfield(bottom, com, grid)
+    tissue = None
+    if bones is not None:
+        if not isinstance(bones, Bones):
+            raise BadInput(f"bones is {type(bones).__name__}; expected a pressurepose.sim.tissue.Bones")
+        tissue = np.zeros(grid.shape)
+        jj, ii = np.nonzero(np.isfinite(bottom))
+        xs, ys = grid.centers()
+        tissue[jj, ii] = tissue_depth(np.stack([xs[ii], ys[jj], bottom[jj, ii]], axis=1), bones)
+    return Heightfield(bottom, com, grid, tissue)
 
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,
-          margin_m: float | None = None, tol: float = 1e-7, max_linear_tilt: float = 0.01,
+          bones: Bones | None = None, margin_m: float | None = None, tol: float = 1e-7, max_linear_tilt: float = 0.01,
           max_passes: int = 4) -> PressResult:
     """Rest a rigid body mesh on the bed and read the pressure mat.
 
@@ -198,6 +212,9 @@ def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy
     the height; surface deeper than the mattress's bottom hangs beside it: see the module doc);
     faces (F, 3) int, a closed surface (either winding); mass_kg > 0. ``com_xy`` overrides the
     centre of mass's x, y (default: the mesh's volume centroid). ``margin_m``: the Pasternak
+    ``bones`` (K segments in the same frame, :func:`pressurepose.sim.tissue.body_bones`): the body's
+    surface yields over them as soft tissue in series with the mattress (modulus
+    ``bed.tissue_modulus_pa``); None presses a rigid body. ``margin_m``: the Pasternak
     foundation is solved on the part of the bed within this distance of the body (default
     ``max(0.15, 6 sqrt(G / k_A))``, where a dent has faded to < 0.3 %); ``tol``: the solver stops
     when the forces change by less than ``tol`` m g in an iteration.
@@ -214,8 +231,8 @@ def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy
     iterations = 0
     for n in range(1, max_passes + 1):
         moved = verts @ turned[:3, :3].T + turned[:3, 3]
-        res = press_heightfield(body_heightfield(moved, tris, bed, com_xy=com_xy), mass_kg, bed,
-                                margin_m=margin_m, tol=tol)
+        hf = body_heightfield(moved, tris, bed, com_xy=com_xy, bones=None if bones is None else bones.moved(turned))
+        res = press_heightfield(hf, mass_kg, bed, margin_m=margin_m, tol=tol)
         iterations += res.iterations
         total = res.transform @ turned
         angle = math.acos(max(-1.0, min(1.0, (np.trace(total[:3, :3]) - 1) / 2)))
@@ -249,17 +266,22 @@ def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m
         raise BadInput("the heightfield was sampled on another bed's grid; sample it with this bed")
     weight = float(mass_kg) * GRAVITY
     b0, com = hf.bottom, hf.com
+    cell_area = grid.cell_xy[0] * grid.cell_xy[1]
+    # m/N of tissue in series with each cell's spring
+    comp = np.zeros(grid.shape) if hf.tissue is None else hf.tissue / (bed.tissue_modulus_pa * cell_area)
+    k_cell = bed.stiffness_n_m3 * cell_area
     edge = _edge_zone(grid, bed)
-    b0 = _drop_hanging_sides(b0, edge, bed.stiffness_n_m3 * grid.cell_xy[0] * grid.cell_xy[1], weight,
-                             bed.mattress_thickness_m)
+    b0 = _drop_hanging_sides(b0, edge, k_cell / (1.0 + k_cell * comp), weight, bed.mattress_thickness_m)
     iterations = 0
     for attempt in range(MAX_EDGE_ROUNDS + 1):
-        under, jac, sol, its = _contact_solve(b0, com, grid, bed, weight, margin_m, tol)
+        under, jac, sol, its = _contact_solve(b0, com, grid, bed, weight, margin_m, tol, comp)
         iterations += its
         bottom = np.full(grid.shape, np.inf)
         bottom[under] = b0[under] + jac @ sol.q
         sink = float(-bottom[under].min())
-        through = bottom < -bed.mattress_thickness_m
+        sheet = bottom.copy()  # where the mattress's top is pushed to: the bottom less the squeezed tissue
+        sheet[under] += comp[under] * sol.lam
+        through = sheet < -bed.mattress_thickness_m
         if not through.any():
             break
         if (through & ~edge).any() or attempt == MAX_EDGE_ROUNDS:
@@ -286,9 +308,9 @@ def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m
 
 
 def _contact_solve(b0: np.ndarray, com: np.ndarray, grid: PressGrid, bed: BedSpec, weight: float,
-                   margin_m: float | None, tol: float):
-    """The contact solve over the cells with a body above them: (under (ny, nx) bool, jacobian,
-    ContactSolution, iterations)."""
+                   margin_m: float | None, tol: float, comp: np.ndarray):
+    """The contact solve over the cells with a body above them, ``comp`` (ny, nx) m/N of tissue in
+    series with each cell: (under (ny, nx) bool, jacobian, ContactSolution, iterations)."""
     under = np.isfinite(b0)
     if not under.any():
         raise PressFailed("the body is not over the mattress")
@@ -296,7 +318,9 @@ def _contact_solve(b0: np.ndarray, com: np.ndarray, grid: PressGrid, bed: BedSpe
     jj, ii = np.nonzero(under)
     jac = rigid_jacobian(xs[ii], ys[jj], com[:2])
     dx, dy = grid.cell_xy
-    sol = solve_winkler(b0[under], jac, bed.stiffness_n_m3 * dx * dy, weight, max_slope=MAX_TILT_RAD)
+    k_cell = bed.stiffness_n_m3 * dx * dy
+    c = comp[under]
+    sol = solve_winkler(b0[under], jac, k_cell / (1.0 + k_cell * c), weight, max_slope=MAX_TILT_RAD)
     iterations = sol.iterations
     if bed.coupling_n_m > 0:
         margin = max(0.15, 6.0 * bed.spread_length_m) if margin_m is None else float(margin_m)
@@ -304,15 +328,16 @@ def _contact_solve(b0: np.ndarray, com: np.ndarray, grid: PressGrid, bed: BedSpe
         i0, i1 = _fast_window(ii.min(), ii.max() + 1, math.ceil(margin / dx), grid.shape[1])
         found = PasternakFoundation((j1 - j0, i1 - i0), grid.cell_xy, bed.stiffness_n_m3, bed.coupling_n_m)
         flat = (jj - j0) * (i1 - i0) + (ii - i0)
-        sol = solve_pasternak(b0[under], jac, flat, found, weight, sol.lam, tol=tol, max_slope=MAX_TILT_RAD)
+        sol = solve_pasternak(b0[under], jac, flat, found, weight, sol.lam, tol=tol, max_slope=MAX_TILT_RAD,
+                              compliance=c)
         iterations += sol.iterations
     return under, jac, sol, iterations
 
 
-def _drop_hanging_sides(b0: np.ndarray, edge: np.ndarray, k_cell: float, weight: float,
+def _drop_hanging_sides(b0: np.ndarray, edge: np.ndarray, k_cell: np.ndarray, weight: float,
                         thickness: float) -> np.ndarray:
     """``b0`` (ny, nx) heights without the edge-zone cells that a level sink of the body (springs
-    ``k_cell`` N/m per cell, ``weight`` N) pushes deeper than ``thickness`` (the sides of a limb
+    ``k_cell`` (ny, nx) N/m per cell, ``weight`` N) pushes deeper than ``thickness`` (the sides of a limb
     hanging over the mattress's edge): a first guess, made before those sides can turn the body
     in the contact solve."""
     b0 = b0.copy()
@@ -320,7 +345,7 @@ def _drop_hanging_sides(b0: np.ndarray, edge: np.ndarray, k_cell: float, weight:
         finite = np.isfinite(b0)
         if not finite.any():
             break
-        through = finite & edge & (b0 - level_sink(b0[finite], k_cell, weight) < -thickness)
+        through = finite & edge & (b0 - level_sink(b0[finite], k_cell[finite], weight) < -thickness)
         if not through.any():
             break
         b0[through] = np.inf

@@ -57,6 +57,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press
     from pressurepose.sim.settle import settle
+    from pressurepose.sim.tissue import body_bones
 
     drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
                        config=SamplerConfig() if sampler is None else sampler)
@@ -65,7 +66,8 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
         return rest.status
     verts, _ = body.forward(rest.betas, rest.pose, rest.transl)
     try:
-        image = press(verts[0], body.faces, rest.mass_kg, bed)
+        image = press(verts[0], body.faces, rest.mass_kg, bed,
+                      bones=body_bones(body, rest.betas, rest.pose, rest.transl))
     except PressFailed:
         return "press_failed"
     pose, transl = apply_rigid_motion(body, rest.betas, rest.pose, rest.transl, image.transform)
