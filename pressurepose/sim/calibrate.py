@@ -58,20 +58,21 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("c0", -20.0, 20.0, False, "sensor offset, mmHg"),
     Parameter("c1", 0.2, 5.0, False, "sensor gain"),
     Parameter("c2", -0.02, 0.02, False, "sensor curvature, 1/mmHg"),
+    Parameter("tissue", math.log10(1e3), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
 )}
 
 
 def bed_params(bed: BedSpec) -> dict[str, float]:
     """The fittable constants of a bed, by :data:`PARAMETERS` name."""
     return {"stiffness": bed.stiffness_n_m3, "spread": bed.spread_length_m, "c0": bed.sensor_c0,
-            "c1": bed.sensor_c1, "c2": bed.sensor_c2}
+            "c1": bed.sensor_c1, "c2": bed.sensor_c2, "tissue": bed.tissue_modulus_pa}
 
 
 def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
     """``bed`` with some of its :data:`PARAMETERS` replaced."""
     p = {**bed_params(bed), **params}
     return dataclasses.replace(bed, stiffness_n_m3=p["stiffness"], coupling_n_m=p["stiffness"] * p["spread"] ** 2,
-                               sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"])
+                               sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"], tissue_modulus_pa=p["tissue"])
 
 
 # ------------------------------------------------------------------ objects and loss
