@@ -113,14 +113,21 @@ def row_spans(contact) -> np.ndarray:
 
 def core_contact(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE) -> np.ndarray:
     """(N, rows, cols) bool: contact within ``rule.core_half_width_m`` across the bed of each image's
-    load centroid (the trunk's and head's line; raised hands mostly fall outside)."""
+    body axis (the line through the rows' load centroids, fitted by load-weighted least squares, so a
+    body lying askew is followed; raised hands mostly fall outside)."""
     p = _images(images)
     _check_mat(p, mat)
     cols = np.arange(p.shape[2]) + 0.5
-    load = p.sum(1)
-    centre = (load @ cols) / np.maximum(load.sum(1), 1e-12)
-    near = np.abs(cols[None, :] - centre[:, None]) * mat.pitch_col_m <= rule.core_half_width_m
-    return (p > rule.contact_mmhg) & near[:, None, :]
+    rows = np.arange(p.shape[1]) + 0.5
+    w = p.sum(2)                                               # (N, rows) load per row
+    c = (p @ cols) / np.maximum(w, 1e-12)                      # (N, rows) centroid column per row
+    sw = np.maximum(w.sum(1), 1e-12)
+    rm, cm = (w @ rows) / sw, (w * c).sum(1) / sw
+    var = (w * (rows - rm[:, None]) ** 2).sum(1)
+    slope = np.where(var > 0, (w * (rows - rm[:, None]) * (c - cm[:, None])).sum(1) / np.maximum(var, 1e-12), 0.0)
+    axis = cm[:, None] + slope[:, None] * (rows - rm[:, None])  # (N, rows) axis column per row
+    near = np.abs(cols[None, None, :] - axis[:, :, None]) * mat.pitch_col_m <= rule.core_half_width_m
+    return (p > rule.contact_mmhg) & near
 
 
 def contact_rows(contact) -> np.ndarray:

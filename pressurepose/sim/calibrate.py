@@ -58,7 +58,7 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("c0", -20.0, 20.0, False, "sensor offset, mmHg"),
     Parameter("c1", 0.2, 5.0, False, "sensor gain"),
     Parameter("c2", -0.02, 0.02, False, "sensor curvature, 1/mmHg"),
-    Parameter("tissue", math.log10(1e3), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
+    Parameter("tissue", math.log10(2e2), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
 )}
 
 
