@@ -158,7 +158,8 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
     rs, ss = real.stats(rule), sim.stats(rule)
     rng = np.random.default_rng(seed)
     fig = plt.figure(figsize=(15, 6.2 * len(groups)))
-    outer = fig.add_gridspec(2 * len(groups), 1, height_ratios=[1, 1.35] * len(groups), hspace=0.38)
+    outer = fig.add_gridspec(2 * len(groups), 1, height_ratios=[1, 1.35] * len(groups), hspace=0.5,
+                             top=1 - 0.7 / len(groups) / 6.2, bottom=0.03)
     colours = {"real": "tab:orange", "simulated": "tab:blue"}
     vmax = float(np.percentile(np.concatenate([real.pressure[real.pressure > rule.contact_mmhg],
                                                sim.pressure[sim.pressure > rule.contact_mmhg]]), 99))
@@ -187,9 +188,9 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
         ax.set_xticks(x, [f"{reg}" for reg in R.REGIONS], fontsize=9)
         ax.set_xlim(-0.6, len(R.REGIONS) - 0.4)
         ax.set_ylabel("share of the image's load")
-        ax.set_title(f"{g}: load share by region (orange real, blue simulated); head imprint "
-                     f"real {head['real']['head_imprint']['rate']:.0%}, sim {head['simulated']['head_imprint']['rate']:.0%}",
-                     fontsize=10)
+        ax.set_title(f"{g}: load share by region (orange real, blue simulated)", fontsize=10)
+        ax.set_xlabel(f"head imprint: real {head['real']['head_imprint']['rate']:.0%}, simulated "
+                      f"{head['simulated']['head_imprint']['rate']:.0%}", fontsize=10)
         imgs = outer[2 * gi + 1].subgridspec(1, 2 * examples + 1, wspace=0.08, width_ratios=[1] * 2 * examples + [0.08])
         im = None
         for j, (name, st, sel, ps) in enumerate((("real", rs, r_sel, real.pressure),
@@ -206,7 +207,7 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
         if im is not None:
             fig.colorbar(im, cax=fig.add_subplot(imgs[-1]), label="mmHg")
     fig.suptitle(f"{real.name} vs {sim.name} on the {sim.mat.name} mat (contact > {rule.contact_mmhg:g} mmHg)",
-                 fontsize=12, y=0.995)
+                 fontsize=12, y=0.999)
     save_figure_atomic(fig, path, dpi=90)
     plt.close(fig)
     return Path(path)
