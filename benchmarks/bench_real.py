@@ -52,6 +52,22 @@ def pitch_fit(data: Path) -> dict:
             "preset_m": real.mat.pitch_row_m}
 
 
+def side_check(data: Path) -> dict:
+    """Which way the knees point in PMD's lateral images: per posture, how many images have the
+    column centroid of rows 36-49 (knees, shins) at higher columns than that of rows 20-31 (hips).
+    A body lying on its right side faces +x (higher columns) in the project's bed frame."""
+    from pressurepose.data.readers.real import read_real
+
+    real = read_real(data)
+    cols = np.arange(real.mat.cols)
+    centroid = lambda a: (a.sum(0) * cols).sum() / a.sum()  # noqa: E731
+    out = {}
+    for name in ("right side", "right fetal", "left side", "left fetal"):
+        imgs = real.images[real.detail == name]
+        out[name] = (int(sum(centroid(i[36:50]) > centroid(i[20:32]) for i in imgs)), len(imgs))
+    return out
+
+
 def synthetic(out: Path, count: int) -> dict:
     summaries = {}
     for part, seeds in (("general_supine", (902, 903)), ("general", (904, 905))):
@@ -76,7 +92,8 @@ def main() -> int:
     args = ap.parse_args()
     out = Path(args.out)
     fit = pitch_fit(Path(args.data))
-    print(f"pitch fit: {fit}")
+    sides = side_check(Path(args.data))
+    print(f"pitch fit: {fit}\nknees toward higher columns: {sides}")
     assert cli(["evaluate-real", args.data, "--out", str(out / "real")]) == 0
     m = json.loads((out / "real" / "metrics.json").read_text())
     report = (out / "real" / "report.md").read_text()
@@ -97,9 +114,10 @@ def main() -> int:
         f"image is estimated with both body models and each estimate counts; contact = input above "
         f"{m['contact_mmhg']:g} mmHg).",
         "",
-        f"{m['n_images']} images of 13 adults ({m['n_estimates']} estimates); skipped {m['skipped']['inclined_bed']} "
-        f"inclined-bed recordings (postures 15-17) and {m['skipped']['weak_recording']} recording whose load is under "
-        f"10 % of its subject's median (S7 posture 1: the mat barely recorded it).",
+        f"{m['n_images']} images of {len(m['per_subject'])} adults ({m['n_estimates']} estimates); skipped "
+        f"{m['skipped']['inclined_bed']} inclined-bed recordings (postures 15-17) and "
+        f"{m['skipped']['weak_recording']} recording(s) whose load is under 10 % of their subject's median (a mat "
+        f"that barely recorded).",
         "",
         section("By posture"),
         "",
@@ -138,6 +156,12 @@ def main() -> int:
         f"1.69-1.86 m measured). The input's total force is the body's weight (weight normalisation), so the "
         f"size comes from how the real pressure is spread, not from its total (issue 12 compares real and "
         f"simulated images).",
+        "",
+        "Left and right: the knees (rows 36-49) lie toward higher columns than the hips (rows 20-31) in "
+        + ", ".join(f"{k}/{n} '{name}'" for name, (k, n) in sides.items())
+        + " images. A body on its right side faces +x (higher columns) in the project's bed frame, so reading "
+        "PMD's 'right' as the side the person lies on (the clinical 'right lateral'), its columns need no flip "
+        "(images alone cannot tell a mirrored mat from swapped labels).",
         "",
         f"FSA pitch refit (supine postures 1, 8, 9 whose contact ends before the last row: {fit['used']} images, "
         f"{fit['cut']} left out; offset {fit['offset_m']:.2f} m): {fit['pitch_m']:.5f} m, RMS residual "

@@ -62,8 +62,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
         "measured height), mass error, and the contact IoU of the reconstructed map (PMR) with the input. "
         "DIR is a PhysioNet PMD experiment folder (I or II, detected) or a labelled folder (images.npy, "
         "labels.csv, mat.json; docs/data.md). Raw readings are weight-normalised to mmHg and resampled "
-        "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/report.md "
-        "(tables by posture, confusion matrix) and OUT/gallery.png (best and worst cases).")
+        "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/estimates.json "
+        "(one row per estimate), OUT/report.md (tables by posture, confusion matrix) and OUT/gallery.png (best "
+        "and worst cases by contact IoU).")
     p.add_argument("dir", help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--model", default=None, help="trained model (default: the shipped PressureNet)")
@@ -76,6 +77,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", choices=("one", "all"), default="one",
                    help="PMD recordings: one image per file (median of its non-blank frames, default) or every "
                         "non-blank frame")
+    p.add_argument("--gain", type=float, default=None,
+                   help="mmHg per raw unit from your mat's calibration (default: raw images are weight-normalised, "
+                        "their total force set to the person's weight)")
     p.add_argument("--contact-mmhg", type=float, default=2.0,
                    help="input taxels above this pressure count as contact for the IoU (default 2 mmHg)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
@@ -83,6 +87,8 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_evaluate_real(args) -> int:
+    import dataclasses
+
     import numpy as np
 
     from pressurepose.data.readers.real import read_real
@@ -98,12 +104,16 @@ def run_evaluate_real(args) -> int:
     config = RealEvalConfig(gender=args.gender, force_gender=args.force_gender, contact_mmhg=args.contact_mmhg,
                             batch_size=args.batch_size)
     real = read_real(args.dir, frames=args.frames)
+    if args.gain is not None:
+        if not args.gain > 0:
+            raise BadInput(f"--gain is {args.gain}; expected a positive number of mmHg per raw unit")
+        real = dataclasses.replace(real, gain=float(args.gain))
     net = resolve_model(args.model).to(args.device)
     result = evaluate_real(real, net, config)
     s = result["summary"]
     metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
                "mat": real.mat.name, "units": real.units, "frames": args.frames, "gender": args.gender,
-               "contact_mmhg": args.contact_mmhg, "n_images": result["n_images"], "skipped": result["skipped"],
+               "gain": real.gain, "contact_mmhg": args.contact_mmhg, "n_images": result["n_images"], "skipped": result["skipped"],
                **s}
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "metrics.json", metrics)

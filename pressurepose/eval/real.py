@@ -69,8 +69,7 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
     if not keep.any():
         raise BadInput("no real image left to evaluate (all inclined-bed or weak recordings)")
     r = real.select(keep)
-    dst = MatSpec("model", *net.config.grid.shape, net.config.grid.pitch_row_m, net.config.grid.pitch_col_m,
-                  max_mmhg=100.0)
+    dst = MatSpec("model", *net.config.grid.shape, net.config.grid.pitch_row_m, net.config.grid.pitch_col_m)
     x = prepare(r.images, r.mat, r.units, dst, weight_kg=r.weight_kg, gain=r.gain)
     idx, genders = [], []
     for i, g in enumerate(r.gender):

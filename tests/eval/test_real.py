@@ -98,3 +98,22 @@ def test_evaluate_real_bad_inputs(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     assert main(["evaluate-real", str(tmp_path / "empty"), "--out", str(tmp_path / "file")]) == 2
     assert "is a file" in capsys.readouterr().err
+
+
+def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.data.resample import MMHG_PA
+    from pressurepose.eval.real import RealEvalConfig, evaluate_real
+    from pressurepose.net.infer import DEFAULT_MODEL, resolve_model
+    from tests.data.realfolders import body_image, write_labelled
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    imgs = np.stack([body_image(64, 27, seed=i, scale=400) for i in range(2)])
+    folder = write_labelled(tmp_path / "raw", imgs, ["supine", "right"], {"preset": "boditrak_bt3510", "units": "raw"},
+                            weights=[60, 90], genders=["f", "m"])
+    real = read_real(folder)
+    res = evaluate_real(real, resolve_model(None), RealEvalConfig())
+    force = res["input"].sum((1, 2)) * MMHG_PA * 0.0286 ** 2
+    np.testing.assert_allclose(force, np.array([60, 90]) * 9.80665, rtol=1e-4)
+    assert res["summary"]["n_estimates"] == 2 and res["skipped"] == {"inclined_bed": 0, "weak_recording": 0}

@@ -11,10 +11,13 @@ Experiment I (Vista Medical FSA SoftFlex 2048 mat, 64 x 32, raw 0-1000, mat pres
 Postures (file number): 1 supine, 2 right side, 3 left side, 4-5 right 30 / 60 deg (wedge), 6-7
 left 30 / 60 deg, 8 supine star, 9 supine hands crossed, 10 supine knee up, 11 / 12 supine right /
 left knee up, 13 right fetal, 14 left fetal, 15-17 supine with the bed's head raised 30, 45, 60 deg
-('inclined': not a flat bed, not scored). 'right' and 'left' are the side the person lies on: in
-the right-side fetal images the knees point toward higher columns, as a body lying on its right
-side faces +x in the project's bed frame (left side toward lower columns when supine), so the
-images need no column flip.
+('inclined': not a flat bed, not scored). 'right' and 'left' are read as the side the person lies
+on (the clinical "right lateral" position). The columns then need no flip: in the right-side
+images (2 and 13) the knees lie toward higher columns than the hips (26 of 26; in the left-side
+images 3 and 14, 24 of 26 toward lower columns; ``benchmarks/bench_real.py``), as a body lying on
+its right side faces +x in the project's bed frame (a supine body's left side toward column 0).
+Images alone cannot tell a mirrored mat from swapped labels; this rests on that reading of the
+labels.
 
 Experiment II (BodiTrak BT3510 mat, 27 x 64, raw 0-500; each file the average of about 20
 frames; two mattresses; the FEET at row 0, flipped here)::
