@@ -41,6 +41,8 @@ def _shards(text: str) -> list[int]:
 
 
 def add_generate_arguments(p: argparse.ArgumentParser) -> None:
+    from pressurepose.pose.commands import add_body_arguments
+
     p.description = (
         "Generate a labelled synthetic dataset (HDF5 shards + manifest.json) into --out. Each sample "
         "is a pure function of (config, seed, sample index), so rerunning the same command after an "
@@ -59,6 +61,11 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--gender", help="f or m")
     g.add_argument("--limbs-on-bed", action="store_true",
                    help="start elbows, wrists, knees and ankles over the mattress (the paper's 'plo')")
+    add_body_arguments(g)
+    g.add_argument("--randomize", action="store_true",
+                   help="domain randomisation: draw the mattress and tissue stiffness, sensor gain and "
+                        "threshold and the mat's offset and rotation per sample (docs/physics.md); each "
+                        "sample's drawn values are stored with it")
     g.add_argument("--count", type=int, help="number of samples")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--recipe", help="make a whole mix instead: 'paper' (the paper's 206K samples, appendix "
@@ -87,12 +94,14 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_generate(args: argparse.Namespace) -> int:
+    from pressurepose.pose.commands import body_settings
     from pressurepose.data.pipeline import generate
     from pressurepose.data.recipes import load_recipe
     from pressurepose.data.schema import GenerationConfig
 
     common = dict(mat=args.mat, shard_size=args.shard_size, producer=args.producer,
-                  max_attempts=args.max_attempts, options=dict(args.option))
+                  max_attempts=args.max_attempts, options=dict(args.option), randomize=bool(args.randomize),
+                  **body_settings(args))
     out = Path(args.out)
     if args.recipe:
         if args.partition or args.gender or args.count is not None or args.limbs_on_bed:

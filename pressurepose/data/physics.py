@@ -23,10 +23,17 @@ def _setup(gender: str, mat: str):
 
 def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Sample | Rejected:
     """One attempt at a labelled sample with the full physics; all randomness from ``rng``."""
+    from pressurepose.pose.config import SamplerConfig
     from pressurepose.sim.simulate import simulate_one
 
     body, bed = _setup(config.gender, config.mat)
-    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed)
+    sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs)
+    conditions = None
+    if config.randomize:
+        from pressurepose.sim.randomize import draw_conditions
+
+        conditions = draw_conditions(rng, bed)
+    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler, conditions)
     if isinstance(sim, str):
         return Rejected(sim)
     betas = np.zeros(10)
@@ -34,4 +41,5 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
     img = sim.image
     return Sample(pressure=img.pressure, force=img.force, depth=img.depth, contact=img.contact, betas=betas,
                   pose=sim.pose, transl=sim.transl, joints=sim.joints, gender=config.gender, mass=sim.mass,
-                  height=sim.height, partition=config.partition)
+                  height=sim.height, partition=config.partition,
+                  conditions=None if conditions is None else conditions.as_array())

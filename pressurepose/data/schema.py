@@ -24,6 +24,8 @@ field          shape / type    meaning
 ``height``     float           m
 ``partition``  str             one of :data:`PARTITIONS`
 ``index``      int             sample index within its dataset (set by the pipeline)
+``conditions`` (7,) float32    only in randomised datasets: the bed the sample was pressed on
+                               (``pressurepose.sim.randomize.CONDITION_NAMES``); else None
 ============== =============== ===========================================================
 
 A dataset on disk is a pure function of its :class:`GenerationConfig`: see ``pipeline.py``.
@@ -91,6 +93,7 @@ class Sample:
     height: float
     partition: str
     index: int = -1
+    conditions: np.ndarray | None = None
 
     def validate(self, shape: tuple[int, int] | None = None, *, what: str = "sample") -> "Sample":
         """Check shapes, dtypes and finiteness; return self. ``shape`` is the mat's (rows, cols).
@@ -114,6 +117,10 @@ class Sample:
                 raise BadInput(f"{what}: {name} contains NaN or infinite values")
         if np.any(np.asarray(self.pressure) < 0) or np.any(np.asarray(self.force) < 0):
             raise BadInput(f"{what}: pressure and force must be >= 0")
+        if self.conditions is not None:
+            c = np.asarray(self.conditions, dtype=np.float64)
+            if c.shape != (7,) or not np.all(np.isfinite(c)):
+                raise BadInput(f"{what}: conditions has shape {c.shape}; expected 7 finite values")
         check_gender(self.gender)
         check_partition(self.partition)
         return self
@@ -131,6 +138,12 @@ def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
     return tuple(sorted(out))
 
 
+# What a config without the sampler and randomisation keys means: the paper's sampler (a manifest
+# written before they existed, or data converted from the paper's release).
+LEGACY_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True,
+                                   "randomize": False}
+
+
 @dataclass(frozen=True)
 class GenerationConfig:
     """Everything that decides a dataset's content; saved in its manifest.
@@ -139,9 +152,15 @@ class GenerationConfig:
     count (samples), seed; mat (sensor preset name); shard_size (samples per file); producer (name in
     ``pressurepose.data.producers.PRODUCERS`` or ``"module:function"``); max_attempts (tries per
     sample before the run fails); options (producer-specific settings, str -> str/number/bool).
+    shapes, placement, hanging_limbs: the pose sampler's body-shape distribution, placement on the
+    bed and hanging-limbs rule (:class:`~pressurepose.pose.config.SamplerConfig`; defaults: SMPL's
+    shape population, bodies centred as people lie, no limb over the edge). randomize: draw the
+    bed's, tissue's and sensor's constants and the mat's placement per sample
+    (:mod:`pressurepose.sim.randomize`). A manifest written before these existed read back with
+    :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation).
 
-    Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, i) for its random draws, so
-    ``count`` and ``shard_size`` do not change it.
+    Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
+    randomisation settings, i) for its random draws, so ``count`` and ``shard_size`` do not change it.
     """
 
     partition: str
@@ -154,6 +173,10 @@ class GenerationConfig:
     producer: str = "physics"
     max_attempts: int = 200
     options: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
+    shapes: str = "normal"
+    placement: str = "centred"
+    hanging_limbs: bool = False
+    randomize: bool = False
 
     def __post_init__(self):
         check_partition(self.partition)
@@ -165,8 +188,16 @@ class GenerationConfig:
                 raise BadInput(f"{name} = {value!r}; expected a positive integer")
         if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
             raise BadInput(f"seed = {self.seed!r}; expected an integer >= 0")
-        if not isinstance(self.limbs_on_bed, (bool, np.bool_)):
-            raise BadInput(f"limbs_on_bed = {self.limbs_on_bed!r}; expected true or false")
+        for name in ("limbs_on_bed", "hanging_limbs", "randomize"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise BadInput(f"{name} = {getattr(self, name)!r}; expected true or false")
+            object.__setattr__(self, name, bool(getattr(self, name)))
+        from pressurepose.pose.config import PLACEMENTS, SHAPES
+
+        if self.shapes not in SHAPES:
+            raise BadInput(f"shapes = {self.shapes!r}; expected one of {', '.join(SHAPES)}")
+        if self.placement not in PLACEMENTS:
+            raise BadInput(f"placement = {self.placement!r}; expected one of {', '.join(PLACEMENTS)}")
         object.__setattr__(self, "mat", get_mat(self.mat).name)
         if not isinstance(self.producer, str) or not self.producer:
             raise BadInput(f"producer = {self.producer!r}; expected a producer name")
@@ -190,9 +221,14 @@ class GenerationConfig:
 
     @property
     def stream_key(self) -> int:
-        """32-bit key of (partition, gender, limbs_on_bed) mixed into every sample's seed, so that
-        two partitions run with the same seed still draw different bodies."""
+        """32-bit key of (partition, gender, limbs_on_bed and the sampler and randomisation settings
+        where they differ from :data:`LEGACY_SAMPLING`) mixed into every sample's seed, so that two
+        partitions run with the same seed still draw different bodies, and a legacy config keeps
+        its key."""
         text = f"{self.partition}|{self.gender}|{int(bool(self.limbs_on_bed))}"
+        extra = [f"{k}={getattr(self, k)}" for k in LEGACY_SAMPLING if getattr(self, k) != LEGACY_SAMPLING[k]]
+        if extra:
+            text += "|" + "|".join(extra)
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
 
     # ---------------------------------------------------------------- serialising
@@ -219,7 +255,7 @@ class GenerationConfig:
         if unknown:
             raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
         try:
-            return cls(**d)
+            return cls(**{**LEGACY_SAMPLING, **d})
         except TypeError as exc:
             raise BadInput(f"{what}: {exc}") from None
 

@@ -19,6 +19,7 @@ Attributes: ``config`` (JSON), ``config_digest``, ``shard``, ``package_version``
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import hashlib
 import io
@@ -143,6 +144,13 @@ def encode_shard(config: GenerationConfig, shard: int, samples: Sequence[Sample]
         f.create_dataset("attempt", data=np.asarray(attempts, dtype=np.int32))
         f.create_dataset("gender", data=np.array([s.gender.encode() for s in samples], dtype="S1"))
         f.create_dataset("partition", data=np.array([s.partition.encode() for s in samples], dtype="S32"))
+        if samples[0].conditions is not None:  # randomised datasets: each sample's bed
+            from pressurepose.sim.randomize import CONDITION_NAMES, RandomizationRanges
+
+            f.create_dataset("conditions", data=np.stack([np.asarray(s.conditions, dtype=np.float32)
+                                                          for s in samples]))
+            f.attrs["condition_names"] = json.dumps(list(CONDITION_NAMES))
+            f.attrs["randomization_ranges"] = json.dumps(dataclasses.asdict(RandomizationRanges()))
     return buf.getvalue()
 
 
@@ -176,7 +184,8 @@ def samples_from_arrays(arrays: dict[str, np.ndarray]) -> list[Sample]:
                    contact=arrays["contact"][i], betas=arrays["betas"][i], pose=arrays["pose"][i],
                    transl=arrays["transl"][i], joints=arrays["joints"][i], gender=str(arrays["gender"][i]),
                    mass=float(arrays["mass"][i]), height=float(arrays["height"][i]),
-                   partition=str(arrays["partition"][i]), index=int(arrays["index"][i]))
+                   partition=str(arrays["partition"][i]), index=int(arrays["index"][i]),
+                   conditions=arrays["conditions"][i] if "conditions" in arrays else None)
             for i in range(n)]
 
 

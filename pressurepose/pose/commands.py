@@ -7,6 +7,26 @@ import argparse
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
 
+def add_body_arguments(p: argparse.ArgumentParser) -> None:
+    """The sampler's shape, placement and hanging-limb options (shared by sample, simulate, generate)."""
+    p.add_argument("--shapes", choices=("normal", "uniform"), default="normal",
+                   help="body shapes: betas ~ N(0, 1) within +-3, SMPL's population (normal, default), or "
+                        "U(-3, 3), the paper's (uniform: a sixth of the bodies are extremely thin or heavy)")
+    p.add_argument("--placement", choices=("centred", "uniform"), default="centred",
+                   help="where bodies lie: centred across the bed (sd 3 cm), crown about 10 cm from the head "
+                        "end, yaw sd 0.1 rad (centred, default), or the paper's uniform +-0.2 m shift and "
+                        "+-pi/6 yaw from the mattress centre (uniform)")
+    p.add_argument("--hanging-limbs", action="store_true",
+                   help="let limbs start beyond the mattress and rest hanging over its edge (the paper's "
+                        "partitions without limbs-on-bed); default: limbs start over the mattress and a body "
+                        "resting with a limb hanging over the edge is rejected")
+
+
+def body_settings(args) -> dict:
+    """SamplerConfig / GenerationConfig keywords from :func:`add_body_arguments`' options."""
+    return {"shapes": args.shapes, "placement": args.placement, "hanging_limbs": bool(args.hanging_limbs)}
+
+
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:
     p.description = (
         "Draw initial bodies (shape, pose, root on the bed) by rejection sampling as in the paper's "
@@ -24,6 +44,7 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
                         "height (proximal, the public code's rule, default) or between 0.1 m below and 0.3 m "
                         "above the surface the body lies on (bed: keeps the upper limbs of a body on its "
                         "side near the bed, so fewer lateral bodies roll over while settling)")
+    add_body_arguments(p)
     p.add_argument("--count", type=int, required=True, help="number of bodies")
     p.add_argument("--seed", type=int, required=True, help="random seed (whole number >= 0)")
     p.add_argument("--model", default=None,
@@ -41,7 +62,7 @@ def run_sample(args) -> int:
 
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
-    config = SamplerConfig(height_reference=args.height_reference)
+    config = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
     t0 = time.perf_counter()
     batch = sample_bodies(args.partition, gender, args.count, args.seed, limbs_on_bed=args.limbs_on_bed,
                           body=body, config=config)

@@ -17,6 +17,8 @@ DEFAULT_MATTRESS = (-(_MAT_W - _SENSE_W) / 2, (_MAT_W + _SENSE_W) / 2, -(_MAT_L 
                     (_MAT_L + _SENSE_L) / 2)
 DEFAULT_SENSING = (0.0, _SENSE_W, 0.0, _SENSE_L)
 HEIGHT_REFERENCES = ("proximal", "bed")
+PLACEMENTS = ("centred", "uniform")
+SHAPES = ("normal", "uniform")
 
 
 def mattress_outline(bed) -> tuple[float, float, float, float]:
@@ -28,9 +30,18 @@ def mattress_outline(bed) -> tuple[float, float, float, float]:
 class SamplerConfig:
     """Settings of the sampler (metres, radians).
 
-    beta_range: betas ~ U(-beta_range, beta_range). yaw_max: yaw ~ U(-yaw_max, yaw_max) (the public
-    code's pi/6; the paper's table says pi/3). shift_max: pelvis offset from the mattress centre,
-    U(-shift_max, shift_max) across and along. height_band: allowed |distal - proximal| height (the
+    shapes: 'normal' (default): betas ~ N(0, beta_sd) truncated to +-beta_range (SMPL's population;
+    3 % of bodies with a BMI under 17 or over 35); 'uniform' (the paper's): U(-beta_range,
+    beta_range) (19 %); see :func:`pressurepose.pose.root.draw_betas`.
+    placement: 'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max, the pelvis N(0,
+    across_sd_m) across the mattress's centre line and the crown head_gap_m +- along_sd_m from its
+    head end; 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the
+    paper's table says pi/3) and the pelvis U(-shift_max, shift_max) across and along from the
+    mattress's centre (see :func:`pressurepose.pose.root.draw_placement`).
+    hanging_limbs: False (default): every limb starts over the mattress (the ``limbs_on_bed`` rule
+    applies whatever the caller's flag) and a body resting with a limb joint beyond the mattress's
+    outline is rejected (``limb_off_bed``); True: limbs may hang over the edge (the paper's
+    partitions without "plo"). height_band: allowed |distal - proximal| height (the
     public code's 0.2 m; the paper's text says 10 cm).
     height_reference: what the distal joint's height is measured from. 'proximal' (default, the
     public code's rule): |distal - proximal| <= height_band. 'bed': the distal joint's height above
@@ -54,6 +65,14 @@ class SamplerConfig:
     beta_range: float = 3.0
     yaw_max: float = math.pi / 6
     shift_max: float = 0.2
+    shapes: str = "normal"
+    beta_sd: float = 1.0
+    placement: str = "centred"
+    yaw_sd: float = 0.1
+    across_sd_m: float = 0.03
+    head_gap_m: float = 0.1
+    along_sd_m: float = 0.03
+    hanging_limbs: bool = False
     height_band: float = 0.2
     height_reference: str = "proximal"
     bed_height_band: tuple[float, float] = (-0.1, 0.3)
@@ -68,10 +87,17 @@ class SamplerConfig:
     collision_patience: int = 20
 
     def __post_init__(self):
-        for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance"):
+        for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
+                  "yaw_sd", "across_sd_m", "head_gap_m", "along_sd_m"):
             v = getattr(self, f)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
+        if self.shapes not in SHAPES:
+            raise BadInput(f"sampler shapes is {self.shapes!r}; expected one of {', '.join(SHAPES)}")
+        if self.placement not in PLACEMENTS:
+            raise BadInput(f"sampler placement is {self.placement!r}; expected one of {', '.join(PLACEMENTS)}")
+        if not isinstance(self.hanging_limbs, (bool, np.bool_)):
+            raise BadInput(f"sampler hanging_limbs is {self.hanging_limbs!r}; expected true or false")
         if self.height_reference not in HEIGHT_REFERENCES:
             raise BadInput(f"sampler height_reference is {self.height_reference!r}; expected one of "
                            f"{', '.join(HEIGHT_REFERENCES)}")
@@ -95,3 +121,12 @@ class SamplerConfig:
     def mattress_centre(self) -> np.ndarray:
         x0, x1, y0, y1 = self.mattress
         return np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+
+
+# The paper's (and its public code's) sampler: shapes U(-3, 3), uniform placement, limbs may hang.
+PAPER_SETTINGS = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True}
+
+
+def paper_sampler(**overrides) -> SamplerConfig:
+    """A :class:`SamplerConfig` with the paper's shape, placement and hanging-limb settings."""
+    return SamplerConfig(**{**PAPER_SETTINGS, **overrides})

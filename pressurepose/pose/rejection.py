@@ -20,7 +20,7 @@ from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.limbs import LIMBS, limb_geometry, limb_lengths, to_world
 from pressurepose.pose.limits import JointLimits, joint_limits
 from pressurepose.pose.partitions import Partition, arm_bin, leg_bin
-from pressurepose.pose.root import root_axis_angle, world_rotation
+from pressurepose.pose.root import draw_betas, draw_placement, root_axis_angle, world_rotation
 from pressurepose.pose.samples import COUNTERS, LIMB_CAUSES
 
 Q = Y_UP_TO_Z_UP
@@ -60,7 +60,8 @@ class Run:
     """The state of one sampling run: n bodies, each with its own generator (see module doc)."""
 
     def __init__(self, part: Partition, body, config: SamplerConfig, limbs_on_bed: bool, rngs):
-        self.part, self.body, self.cfg, self.on_bed, self.rngs = part, body, config, limbs_on_bed, rngs
+        self.part, self.body, self.cfg, self.rngs = part, body, config, rngs
+        self.on_bed = limbs_on_bed or not config.hanging_limbs
         self.limits: JointLimits = joint_limits(part)
         self.boxes = [limb.box(self.limits, part.straight_limbs) for limb in LIMBS]
         self.j_template, j_dirs, self.cap_regressors = _body_data(body)
@@ -97,20 +98,22 @@ class Run:
     def _draw_body(self, i: int) -> None:
         """Shape, root and shift of body i from its generator, and what follows from them."""
         rng, cfg, part = self.rngs[i], self.cfg, self.part
-        self.betas[i] = rng.uniform(-cfg.beta_range, cfg.beta_range, self.betas.shape[1])
+        self.betas[i] = draw_betas(rng, cfg, self.betas.shape[1])
         lo, hi = part.roll
         self.roll[i] = rng.uniform(lo, hi) if hi > lo else lo
-        self.yaw[i] = rng.uniform(-cfg.yaw_max, cfg.yaw_max)
-        shift = rng.uniform(-cfg.shift_max, cfg.shift_max, 2)
         self.rest[i] = self.j_template + self.j_dirs @ self.betas[i]
         caps = capsules_for(self.body, self.betas[i], self.cap_regressors)
+        head = CAPSULE_NAMES.index("head")  # the crown: the head capsule's top, SMPL's +y up at rest
+        crown = (self.rest[i, CAPSULE_JOINTS[head], 1] + (caps.center[head] @ Q)[1]
+                 + 0.5 * caps.length[head] * abs((caps.axis[head] @ Q)[1]) + caps.radius[head] - self.rest[i, 0, 1])
+        self.yaw[i], pelvis_xy = draw_placement(rng, cfg, crown)
         self.caps[i] = caps
         self.cap_radius[i] = caps.radius
         half = 0.5 * caps.length[:, None, None] * np.array([-1.0, 1.0])[None, :, None]
         self.cap_ends[i] = (caps.center[:, None, :] + half * caps.axis[:, None, :]) @ Q  # z-up -> SMPL axes
         self.W[i] = world_rotation(self.roll[i], self.yaw[i])[0]
         self.M[i] = self.W[i] @ Q
-        self.pelvis[i] = [*(cfg.mattress_centre + shift), 0.0]
+        self.pelvis[i] = [*pelvis_xy, 0.0]
         self.lengths[i] = limb_lengths(self.rest[i:i + 1])[0]
         rest_ends = [self.rest[i, CAPSULE_JOINTS[k]] + self.cap_ends[i, k] for k in SUPPORT_CAPSULES]
         z = to_world(np.stack(rest_ends)[None], self.M[i:i + 1], self.rest[i:i + 1, 0], self.pelvis[i:i + 1])

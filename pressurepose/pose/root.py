@@ -50,3 +50,47 @@ def root_rotation(root_pose: np.ndarray) -> np.ndarray:
 def body_axes(W: np.ndarray) -> dict[str, np.ndarray]:
     """World directions (B, 3) of the body's head, face (front) and left for rotations W (B, 3, 3)."""
     return {"head": W[..., :, 2], "face": -W[..., :, 1], "left": W[..., :, 0]}
+
+
+def truncated_normal(rng: np.random.Generator, sd: float, bound: float, size=None) -> np.ndarray:
+    """N(0, sd) values redrawn until |value| <= bound (sd 0: zeros). Deterministic for a given rng."""
+    out = np.zeros(size) if size is not None else np.zeros(())
+    if sd <= 0:
+        return out if size is not None else float(out)
+    todo = np.ones(out.shape, dtype=bool)
+    while todo.any():
+        out[todo] = rng.normal(0.0, sd, int(todo.sum()))
+        todo = np.abs(out) > bound
+    return out if size is not None else float(out)
+
+
+def draw_betas(rng: np.random.Generator, config, count: int) -> np.ndarray:
+    """Body shape (count,) betas. ``config.shapes`` 'normal' (default): N(0, beta_sd) truncated to
+    +-beta_range, SMPL's own population (its betas are unit-variance PCA coefficients of scanned
+    adults); 'uniform': U(-beta_range, beta_range), the paper's (a sixth of its bodies have a BMI
+    under 17 or over 35; see docs/physics.md)."""
+    if config.shapes == "uniform":
+        return rng.uniform(-config.beta_range, config.beta_range, count)
+    return truncated_normal(rng, config.beta_sd, config.beta_range, count)
+
+
+def draw_placement(rng: np.random.Generator, config, crown_m: float) -> tuple[float, np.ndarray]:
+    """Yaw (rad) and the pelvis's bed-frame (x, y) for a body whose crown lies ``crown_m`` from its
+    pelvis joint along the body's head direction.
+
+    'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max; the pelvis N(0, across_sd_m) across
+    the mattress's centre line, and along the bed so that the crown lies head_gap_m +- along_sd_m
+    (normal) from the mattress's head end, as people lie in a bed. 'uniform' (the paper's): yaw ~
+    U(-yaw_max, yaw_max), the pelvis U(-shift_max, shift_max) across and along from the mattress's
+    centre.
+    """
+    centre = config.mattress_centre
+    if config.placement == "uniform":
+        yaw = rng.uniform(-config.yaw_max, config.yaw_max)
+        return float(yaw), centre + rng.uniform(-config.shift_max, config.shift_max, 2)
+    yaw = truncated_normal(rng, config.yaw_sd, config.yaw_max)
+    across = rng.normal(0.0, config.across_sd_m) if config.across_sd_m > 0 else 0.0
+    gap = rng.normal(config.head_gap_m, config.along_sd_m) if config.along_sd_m > 0 else config.head_gap_m
+    head = world_rotation(0.0, yaw)[0, :, 2]  # the body's head direction on the bed
+    y = config.mattress[2] + gap - crown_m * head[1]
+    return float(yaw), np.array([centre[0] + across, y])

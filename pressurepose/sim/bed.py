@@ -151,6 +151,7 @@ class BedSpec:
         (see :mod:`pressurepose.sim.sensor`).
     press_cell_m: target size of the cells the press simulation resolves the body's lower surface
         and the foundation on; each taxel is split into ceil(pitch / press_cell_m) cells per side.
+    sensor_threshold_mmhg: readings below this are 0 (a mat's noise floor; 0: none).
     tissue_modulus_pa: Young's modulus E of the body's soft tissue, Pa: where the press is given
         the body's bones, the tissue of depth t over them is a spring E A / t per cell area A in
         series with the mattress (:mod:`pressurepose.sim.tissue`).
@@ -171,6 +172,7 @@ class BedSpec:
     sensor_c2: float = 0.0
     press_cell_m: float = 0.01
     tissue_modulus_pa: float = TISSUE_MODULUS_PA
+    sensor_threshold_mmhg: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.mat, MatSpec):
@@ -178,7 +180,7 @@ class BedSpec:
         for field in ("mattress_width_m", "mattress_length_m", "mattress_thickness_m", "stiffness_n_m3",
                       "press_cell_m", "tissue_modulus_pa"):
             _check_positive(f"bed {field}", getattr(self, field))
-        for field in ("coupling_n_m", "damping_s", "friction"):
+        for field in ("coupling_n_m", "damping_s", "friction", "sensor_threshold_mmhg"):
             _check_non_negative(f"bed {field}", getattr(self, field))
         for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
             _check_finite(f"bed {field}", getattr(self, field))

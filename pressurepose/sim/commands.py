@@ -143,6 +143,8 @@ def _plot_history(ax, res):
 
 
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
+    from pressurepose.pose.commands import add_body_arguments
+
     p.add_argument("--partition", required=True, help="posture partition, e.g. general_supine, general, prone_hands_up")
     p.add_argument("--gender", required=True, help="f or m")
     p.add_argument("--limbs-on-bed", action="store_true", help="start every limb over the mattress")
@@ -150,6 +152,7 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
                    help="where ankles and wrists start: within 0.2 m of their hip's or shoulder's height "
                         "(proximal, default) or 0.1 m below to 0.3 m above the surface the body lies on "
                         "(bed: fewer bodies on their side roll over while settling; see `sample --help`)")
+    add_body_arguments(p)
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
     p.add_argument("--seed", type=int, default=0, help="random seed [0]")
     p.add_argument("--mat", default="boditrak_bt3510", help="mat preset [boditrak_bt3510]")
@@ -166,6 +169,7 @@ def run_simulate(args) -> int:
 
     from pressurepose.body import BodyModel, canonical_gender
     from pressurepose.errors import BadInput
+    from pressurepose.pose.commands import body_settings
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.sim.bed import get_bed
     from pressurepose.sim.simulate import simulate_one
@@ -174,7 +178,7 @@ def run_simulate(args) -> int:
         raise BadInput(f"--count is {args.count}; expected at least 1")
     gender = canonical_gender(args.gender)[0]
     body, bed = BodyModel(gender), get_bed(args.mat)
-    sampler = SamplerConfig(height_reference=args.height_reference)
+    sampler = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
     done, rejected = [], Counter()
     for i in tqdm(range(args.count), desc="simulate", unit="body"):
         for attempt in range(100):

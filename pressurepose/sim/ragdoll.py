@@ -57,6 +57,16 @@ _STIFFNESS_BY_NAME = {
 }
 MEAN_STIFFNESS = np.array([_STIFFNESS_BY_NAME.get(n, 0.0) for n in JOINT_NAMES])
 DAMPING_PER_STIFFNESS_S = 15.0
+# A relaxed neck (default; ``relaxed_neck=False`` keeps the paper's 200 N m/rad): the neck and head
+# joints of the average body get this stiffness (N m/rad, scaled by mass like the others) and
+# damping of RELAXED_NECK_DAMPING_S x stiffness. The paper's springs hold the head in its standing
+# pose, and a supine head's back lies 2-5 cm above where the upper back has sunk to, so half the
+# supine heads left no imprint (issue 12; real: 99 %). A head of ~4.5 kg on a ~0.1 m lever pulls with
+# ~4 N m: soft enough springs let it fall onto the bed within the settle's first 0.5 s, and less
+# damping (15 x stiffness would be a 15 s time constant) lets it get there before the resting test.
+RELAXED_NECK_STIFFNESS = 10.0
+RELAXED_NECK_DAMPING_S = 0.3
+NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
 # hinge joints: SMPL joint -> SMPL local axis (knees x, elbows y), as in pressurepose.pose.limits
 HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
 # Penalty stiffness of the ball-joint limits, as a multiple of the joint's own stiffness. The settle
@@ -225,12 +235,14 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
 
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,
-                   masses: CapsuleMasses | None = None, limits=None) -> RagdollParams:
+                   masses: CapsuleMasses | None = None, limits=None, relaxed_neck: bool = True) -> RagdollParams:
     """The ragdoll of ``body`` with shape ``betas`` (S,).
 
     gender: the mass table and the mean mass that scales the joint stiffness (default the body's);
     caps, masses: precomputed capsules / masses (default :func:`capsules_for`, :func:`segment_masses`);
     limits: a ``pressurepose.pose.limits.JointLimits`` (default the nominal ``joint_limits()``).
+    relaxed_neck: soft neck and head joints (:data:`RELAXED_NECK_STIFFNESS`) so the head rests on
+    the bed; False: the paper's stiffness.
     """
     from pressurepose.pose.limits import joint_limits
 
@@ -249,6 +261,11 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
     offset[parent >= 0] -= J[joints[parent[parent >= 0]]]
     scale = masses.total / MEAN_MASS_KG[g]
     stiffness = scale * MEAN_STIFFNESS[joints]
+    damping = DAMPING_PER_STIFFNESS_S * stiffness
+    if relaxed_neck:
+        neck = np.isin(joints, NECK_JOINTS)
+        stiffness[neck] = scale * RELAXED_NECK_STIFFNESS
+        damping[neck] = RELAXED_NECK_DAMPING_S * stiffness[neck]
     com, inertia_full = joint_frame_mass_properties(masses, caps)
     principal, axes = np.linalg.eigh(inertia_full)
     axes = axes * np.where(np.linalg.det(axes) < 0, -1.0, 1.0)[:, None, None]  # proper rotations
@@ -258,7 +275,7 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
         length=np.asarray(caps.length, float), contact_length=trunk_contact_lengths(body, betas, caps),
         mass=np.asarray(masses.mass, float), com=com,
         inertia=principal, inertia_rot=axes, total_mass=float(masses.total), stiffness=stiffness,
-        damping=DAMPING_PER_STIFFNESS_S * stiffness,
+        damping=damping,
         lower=np.asarray(limits.lower, float)[joints], upper=np.asarray(limits.upper, float)[joints],
         limited=np.asarray(limits.limited, bool)[joints],
         home=home_pose().reshape(NUM_JOINTS, 3)[joints])

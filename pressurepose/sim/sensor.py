@@ -5,7 +5,8 @@ compression ``x`` of the mat's top layer. For a thin elastic layer the compressi
 to the pressure on it, so the same law is written here in the taxel's mean contact pressure
 ``x = force / taxel area`` (in mmHg): it keeps the constants identifiable (a layer stiffness
 would only rescale C1 and C2) and gives them plain meaning: C1 = 1, C0 = C2 = 0 is an ideal
-sensor. Taxels that carry no load read 0; readings are clipped to ``[0, mat.max_mmhg]``.
+sensor. Taxels that carry no load read 0; readings are clipped to ``[0, mat.max_mmhg]``, and
+readings below the bed's ``sensor_threshold_mmhg`` read 0.
 """
 
 from __future__ import annotations
@@ -35,7 +36,8 @@ def read_sensor(force_n, bed) -> np.ndarray:
     if not np.all(np.isfinite(f)) or f.min(initial=0.0) < 0:
         raise BadInput("taxel forces must be finite and non-negative newtons")
     x = f / bed.mat.taxel_area_m2 / MMHG_PA
-    return sensor_law(x, bed.sensor_c0, bed.sensor_c1, bed.sensor_c2, bed.mat.max_mmhg)
+    u = sensor_law(x, bed.sensor_c0, bed.sensor_c1, bed.sensor_c2, bed.mat.max_mmhg)
+    return np.where(u >= bed.sensor_threshold_mmhg, u, 0.0)
 
 
 def force_to_mmhg(image, mass_kg: float, taxel_area_m2: float) -> np.ndarray:

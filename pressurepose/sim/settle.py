@@ -85,6 +85,8 @@ class SettleConfig:
     max_speed_m_s: faster capsule points mean the simulation blew up; fall_depth_m: a pelvis this far
         below the mattress top has fallen off; self_collision_tol_m: start overlap allowed between limbs.
     posture_check_steps: how often (steps) the posture class is checked while settling.
+    relaxed_neck: soft neck and head joints so the head rests on the bed (default; False: the
+        paper's stiffness, see :data:`pressurepose.sim.ragdoll.RELAXED_NECK_STIFFNESS`).
     """
 
     timestep_s: float = 0.01
@@ -108,6 +110,7 @@ class SettleConfig:
     fall_depth_m: float = 0.25
     self_collision_tol_m: float = 0.002
     posture_check_steps: int = 10
+    relaxed_neck: bool = True
 
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
@@ -361,7 +364,7 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
 
         caps = capsules_for(body, betas)
         masses = segment_masses(body, betas, g, caps=caps)
-        params = ragdoll_params(body, betas, g, caps=caps, masses=masses)
+        params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck)
     sm = settle_model(bed, config, params)
     return _run(sm, params, betas, g, pose, transl)
 

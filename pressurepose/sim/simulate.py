@@ -11,14 +11,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle, shaped_rest
+
+# joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
+LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right")
+                    for j in ("knee", "ankle", "foot", "elbow", "wrist", "hand"))
+# a limb joint this far below the mattress's top beyond its edge hangs (a resting limb's joints lie
+# above the body's lowest surface, which sinks at most ~7 cm into the foam)
+HANG_DEPTH_M = 0.1
 
 
 @dataclass(frozen=True, eq=False)
 class Simulated:
     """A settled, pressed body: labels (betas (S,), pose (72,), transl (3,), joints (24, 3) bed frame,
     mass kg, height m) and ``image``, the :class:`~pressurepose.sim.press.PressResult`
-    (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest."""
+    (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest;
+    ``conditions``: the randomised bed it was pressed on (:class:`~pressurepose.sim.randomize.Conditions`),
+    or None (the nominal bed)."""
 
     betas: np.ndarray
     pose: np.ndarray
@@ -28,6 +38,7 @@ class Simulated:
     height: float
     image: object
     settle_steps: int
+    conditions: object = None
 
 
 def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
@@ -48,11 +59,23 @@ def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.nda
     return new_pose, new_transl
 
 
+def limb_off_bed(joints: np.ndarray, bed) -> bool:
+    """Whether a limb hangs over the mattress's edge: a limb joint of ``joints`` (24, 3) bed frame
+    beyond the mattress's outline and more than HANG_DEPTH_M below its top. (A hand or foot that
+    rests across the edge a few cm past it, as arms above the head of a body lying near the head
+    end do, is not hanging.)"""
+    x0, x1, y0, y1 = bed.mattress_bounds
+    p = joints[list(LIMB_JOINTS)]
+    beyond = (p[:, 0] < x0) | (p[:, 0] > x1) | (p[:, 1] < y0) | (p[:, 1] > y1)
+    return bool(np.any(beyond & (p[:, 2] < -HANG_DEPTH_M)))
+
+
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
-                 limbs_on_bed: bool = False, sampler=None) -> Simulated | str:
+                 limbs_on_bed: bool = False, sampler=None, conditions=None) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
-    pressing fails. All randomness comes from ``rng``. ``sampler``: the pose sampler's
-    :class:`~pressurepose.pose.config.SamplerConfig` (default: its defaults)."""
+    pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
+    (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from ``rng``. ``sampler``: the
+    pose sampler's :class:`~pressurepose.pose.config.SamplerConfig` (default: its defaults)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press
@@ -64,14 +87,20 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed)
     if not rest.ok:
         return rest.status
-    verts, _ = body.forward(rest.betas, rest.pose, rest.transl)
+    verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
+    if not (SamplerConfig() if sampler is None else sampler).hanging_limbs and limb_off_bed(joints[0], bed):
+        return "limb_off_bed"
+    pose, transl, press_bed = rest.pose, rest.transl, bed
+    if conditions is not None:
+        press_bed = conditions.bed(bed)
+        pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, conditions.body_motion(bed))
+        verts, _ = body.forward(rest.betas, pose, transl)
     try:
-        image = press(verts[0], body.faces, rest.mass_kg, bed,
-                      bones=body_bones(body, rest.betas, rest.pose, rest.transl))
+        image = press(verts[0], body.faces, rest.mass_kg, press_bed, bones=body_bones(body, rest.betas, pose, transl))
     except PressFailed:
         return "press_failed"
-    pose, transl = apply_rigid_motion(body, rest.betas, rest.pose, rest.transl, image.transform)
+    pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
                      mass=float(rest.mass_kg), height=float(body.height(rest.betas)[0]), image=image,
-                     settle_steps=int(rest.steps))
+                     settle_steps=int(rest.steps), conditions=conditions)

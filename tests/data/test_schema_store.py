@@ -156,3 +156,21 @@ def test_corrupt_manifest_is_reported(tmp_path):
     (out / MANIFEST).write_text("{ not json")
     with pytest.raises(BadInput, match="manifest .* is corrupt"):
         generate(small_config(count=6, shard_size=6), out, progress=False)
+
+
+def test_sampler_settings_are_in_the_config_and_a_legacy_manifest_reads_as_the_papers():
+    new = GenerationConfig(partition="general", gender="f")
+    assert (new.shapes, new.placement, new.hanging_limbs, new.randomize) == ("normal", "centred", False, False)
+    legacy = {k: v for k, v in new.to_dict().items() if k not in ("shapes", "placement", "hanging_limbs", "randomize")}
+    old = GenerationConfig.from_dict(legacy)
+    assert (old.shapes, old.placement, old.hanging_limbs, old.randomize) == ("uniform", "uniform", True, False)
+    # the legacy config keeps the seed key it always had; every other setting gets its own stream
+    assert old.stream_key == int.from_bytes(__import__("hashlib").sha256(b"general|f|0").digest()[:4], "little")
+    keys = {old.stream_key, new.stream_key, GenerationConfig(partition="general", gender="f", randomize=True).stream_key,
+            GenerationConfig(partition="general", gender="f", placement="uniform").stream_key}
+    assert len(keys) == 4
+    assert GenerationConfig.from_json(new.to_json()) == new
+    with pytest.raises(BadInput, match="placement"):
+        GenerationConfig(partition="general", gender="f", placement="edge")
+    with pytest.raises(BadInput, match="randomize"):
+        GenerationConfig(partition="general", gender="f", randomize="yes")

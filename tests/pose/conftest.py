@@ -17,15 +17,18 @@ def female():
 
 @pytest.fixture(scope="session")
 def batch_of(female):
-    """batch_of(partition, limbs_on_bed, count, seed) -> SampleBatch, cached for the session."""
+    """batch_of(partition, limbs_on_bed, count, seed) -> SampleBatch with the paper's sampler
+    settings (uniform shapes and placement, limbs may hang), cached for the session."""
     from pressurepose.pose import sample_bodies
+    from pressurepose.pose.config import paper_sampler
 
     cache = {}
 
     def get(partition, limbs_on_bed, count, seed):
         key = (partition, limbs_on_bed, count, seed)
         if key not in cache:
-            cache[key] = sample_bodies(partition, "f", count, seed, limbs_on_bed=limbs_on_bed, body=female)
+            cache[key] = sample_bodies(partition, "f", count, seed, limbs_on_bed=limbs_on_bed, body=female,
+                                       config=paper_sampler())
         return cache[key]
 
     return get

@@ -192,6 +192,13 @@ def test_stiffness_scales_with_mass_and_damping_is_15x(body, params):
     ratio = heavy.total_mass / params.total_mass
     assert ratio > 1.2
     np.testing.assert_allclose(heavy.stiffness, ratio * params.stiffness)
+    neck = np.isin(CAPSULE_NAMES, ["neck", "head"])
+    np.testing.assert_allclose(params.damping[~neck], 15.0 * params.stiffness[~neck])
+    # the relaxed neck (default): soft, lightly damped neck and head joints
+    relaxed = params.stiffness[neck] * rd.MEAN_MASS_KG["female"] / params.total_mass
+    np.testing.assert_allclose(relaxed, rd.RELAXED_NECK_STIFFNESS)
+    np.testing.assert_allclose(params.damping[neck], rd.RELAXED_NECK_DAMPING_S * params.stiffness[neck])
+    params = rd.ragdoll_params(body, BETAS, "female", relaxed_neck=False)  # the paper's
     np.testing.assert_allclose(params.damping, 15.0 * params.stiffness)
     k = dict(zip(CAPSULE_NAMES, params.stiffness * rd.MEAN_MASS_KG["female"] / params.total_mass))
     assert k["pelvis"] == 0.0

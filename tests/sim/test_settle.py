@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from pressurepose.body import BodyModel
+from pressurepose.body.model import asset_path
 from pressurepose.body.capsules import capsules_for, posed_capsules
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
@@ -291,3 +292,34 @@ def test_posture_classes_from_the_root():
     assert posture_class(poses[3]) == "left_lateral"
     with pytest.raises(BadInput):
         posture_class(np.zeros(5))
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+def test_a_supine_head_rests_on_the_bed():
+    """With the relaxed neck (default) a supine head falls onto the bed while settling and the press
+    finds it loading the mat; the paper's stiff neck holds it higher."""
+    from pressurepose.sim.press import press
+    from pressurepose.sim.tissue import body_bones
+
+    from pressurepose.pose.sampler import body_rng, sample_one
+
+    body = BodyModel("female")
+    drawn = sample_one("general_supine", "f", body_rng(3, 0), body=body)
+    betas = drawn.betas
+    caps = capsules_for(body, betas)
+    head = caps.names.index("head")
+    low = {}
+    for relaxed in (True, False):
+        res = settle(body, betas, drawn.pose, drawn.transl, "female", BED,
+                     dataclasses.replace(FAST, relaxed_neck=relaxed))
+        assert res.ok
+        ends, radius = posed_capsules(body, caps, betas, res.pose[None], res.transl[None])
+        low[relaxed] = ends[0, head, :, 2].min() - radius[head]
+        if relaxed:
+            verts, joints = body.forward(betas, res.pose, res.transl)
+            img = press(verts[0], body.faces, res.mass_kg, BED, bones=body_bones(body, betas, res.pose, res.transl))
+            near = np.linalg.norm(BED.taxel_centers() - joints[0, 15, :2], axis=-1) < 0.1
+            head_mass = res.mass_kg * 0.06  # the head is 6-8 % of the body's mass
+            assert img.force[near].sum() > 0.5 * head_mass * G
+    assert low[True] < 0.0             # the head capsule is sunk into the mattress
+    assert low[True] < low[False] - 0.01

@@ -32,3 +32,43 @@ def test_simulate_passes_the_height_reference_to_the_sampler(tmp_path, capsys):
                      "--height-reference", ref, "--out", str(out)]) == 0
         poses[ref] = np.load(out)["pose"][0]
     assert not np.allclose(poses["proximal"], poses["bed"])
+
+
+def test_a_hanging_limb_is_one_beyond_the_edge_and_below_the_top():
+    from pressurepose.sim import get_bed
+    from pressurepose.sim.simulate import limb_off_bed
+
+    bed = get_bed()
+    x0, x1, y0, y1 = bed.mattress_bounds
+    joints = np.zeros((24, 3))
+    joints[:, :2] = [(x0 + x1) / 2, (y0 + y1) / 2]
+    assert not limb_off_bed(joints, bed)
+    knee = joints.copy()
+    knee[4] = [x1 + 0.1, (y0 + y1) / 2, -0.45]  # a knee bent down over the side, 0.45 m below the top
+    assert limb_off_bed(knee, bed)
+    hand = joints.copy()
+    hand[22] = [(x0 + x1) / 2, y0 - 0.05, -0.02]  # a hand resting across the head end
+    assert not limb_off_bed(hand, bed)
+    deep_inside = joints.copy()
+    deep_inside[7, 2] = -0.3  # below the top but over the mattress: not hanging (the press fails it)
+    assert not limb_off_bed(deep_inside, bed)
+
+
+def test_no_limb_hangs_over_the_edge_unless_asked(tmp_path, capsys):
+    """supine_straight_limbs (where legs hung over the side in 3 of 6 bodies before): by default every
+    resting limb joint lies over the mattress or within HANG_DEPTH_M of its top; --hanging-limbs
+    --placement uniform lets limbs start beyond the mattress again (the paper's sampler)."""
+    from pressurepose.sim import get_bed
+    from pressurepose.sim.simulate import HANG_DEPTH_M, LIMB_JOINTS
+
+    x0, x1, y0, y1 = get_bed().mattress_bounds
+    out = tmp_path / "s.npz"
+    assert main(["simulate", "--partition", "supine_straight_limbs", "--gender", "m", "--count", "4", "--seed", "3",
+                 "--out", str(out)]) == 0
+    j = np.load(out)["joints"][:, list(LIMB_JOINTS)]
+    over = (j[..., 0] >= x0) & (j[..., 0] <= x1) & (j[..., 1] >= y0) & (j[..., 1] <= y1)
+    assert np.all(over | (j[..., 2] > -HANG_DEPTH_M))
+    assert main(["sample", "--partition", "supine_straight_limbs", "--gender", "m", "--count", "40", "--seed", "3",
+                 "--hanging-limbs", "--placement", "uniform", "--shapes", "uniform", "--out", str(tmp_path / "p.npz")]) == 0
+    j = np.load(tmp_path / "p.npz")["joints"][:, list(LIMB_JOINTS)]
+    assert np.any((j[..., 0] < x0) | (j[..., 0] > x1))  # the paper's sampler lets limbs start beyond the sides

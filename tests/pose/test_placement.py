@@ -1,0 +1,74 @@
+"""Body shape and placement on the bed: the default (people as they lie) and the paper's options."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from pressurepose.errors import BadInput
+from pressurepose.pose import SamplerConfig, sample_bodies
+from pressurepose.pose.config import DEFAULT_MATTRESS, paper_sampler
+from pressurepose.pose.root import draw_betas, truncated_normal
+
+LIMB_JOINTS = [4, 5, 7, 8, 10, 11, 18, 19, 20, 21, 22, 23]
+
+
+def test_default_shapes_are_smpls_population_truncated():
+    rng = np.random.default_rng(0)
+    b = np.concatenate([draw_betas(rng, SamplerConfig(), 10) for _ in range(300)])
+    assert np.abs(b).max() <= 3.0
+    assert stats.kstest(b, stats.truncnorm(-3, 3).cdf).pvalue > 1e-3
+    u = np.concatenate([draw_betas(rng, paper_sampler(), 10) for _ in range(300)])
+    assert stats.kstest((u + 3) / 6, "uniform").pvalue > 1e-3
+    assert truncated_normal(rng, 0.0, 1.0) == 0.0
+
+
+def test_extreme_shapes_are_rare_by_default(female):
+    """BMI under 17 or over 35 (from the body model's own mass and stature): a sixth of the paper's
+    uniform shapes, a few percent of the default's."""
+    rng = np.random.default_rng(1)
+
+    def extreme_share(cfg):
+        betas = np.stack([draw_betas(rng, cfg, 10) for _ in range(300)])
+        bmi = female.mass(betas) / female.height(betas) ** 2
+        return np.mean((bmi < 17) | (bmi > 35))
+
+    assert extreme_share(paper_sampler()) > 0.12
+    assert extreme_share(SamplerConfig()) < 0.06
+
+
+@pytest.fixture(scope="module")
+def centred(female):
+    return sample_bodies("general_supine", "f", 80, 5, body=female)
+
+
+def test_default_placement_centres_the_body_with_the_head_at_the_top(female, centred):
+    b = centred
+    x0, x1, y0, _ = DEFAULT_MATTRESS
+    across = b.joints[:, 0, 0] - (x0 + x1) / 2
+    assert abs(across.mean()) < 0.015 and 0.015 < across.std() < 0.05
+    assert np.abs(b.yaw).max() <= np.pi / 6 and 0.06 < b.yaw.std() < 0.15
+    verts, _ = female.forward(b.betas, b.pose, b.transl)
+    head = np.asarray(female.arrays.weights).argmax(1) == 15
+    crown = verts[:, head, 1].min(1) - y0  # from the mattress's head end
+    assert abs(np.median(crown) - 0.1) < 0.02 and crown.std() < 0.05
+
+
+def test_default_limbs_start_over_the_mattress(centred):
+    x0, x1, y0, y1 = DEFAULT_MATTRESS
+    p = centred.joints[:, LIMB_JOINTS, :2]
+    assert np.all((p[..., 0] >= x0) & (p[..., 0] <= x1) & (p[..., 1] >= y0) & (p[..., 1] <= y1))
+
+
+def test_paper_placement_is_uniform_about_the_mattress_centre(female):
+    b = sample_bodies("general_supine", "f", 60, 6, body=female, config=paper_sampler())
+    x0, x1, y0, y1 = DEFAULT_MATTRESS
+    off = b.joints[:, 0, :2] - [(x0 + x1) / 2, (y0 + y1) / 2]
+    assert np.all(np.abs(off) <= 0.2 + 1e-9) and off.std(0).min() > 0.08  # U(-0.2, 0.2): sd 0.115
+    assert b.yaw.std() > 0.2
+
+
+@pytest.mark.parametrize("field,value", [("placement", "middle"), ("shapes", "gauss"), ("hanging_limbs", "no"),
+                                         ("across_sd_m", -0.1), ("beta_sd", float("nan"))])
+def test_bad_settings_are_named(field, value):
+    with pytest.raises(BadInput, match=field):
+        SamplerConfig(**{field: value})
