@@ -38,12 +38,12 @@ import numpy as np
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
 from pressurepose.sim.bed import BedSpec
-from pressurepose.sim.calibrate import PENALTY, FitResult, bed_params, minimize_cma, sensor_penalty, with_params
+from pressurepose.sim.calibrate import (PENALTY, FitResult, bed_params, minimize_cma, readings, sensor_penalty,
+                                        with_params)
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import Heightfield, body_heightfield, press_heightfield
-from pressurepose.sim.sensor import MMHG_PA, sensor_law
 
-DEFAULT_FIT = ("stiffness", "tissue", "c0")
+DEFAULT_FIT = ("stiffness", "tissue", "threshold")
 TOLERANCE = {"area": 0.2, "mean": 0.2, "peak": 0.3, "share": 0.05}
 
 
@@ -184,8 +184,7 @@ def press_forces(bodies: list[RestingBody], bed: BedSpec) -> np.ndarray:
 def simulated_stats(forces: np.ndarray, bodies: list[RestingBody], bed: BedSpec,
                     rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
     """{group: GroupTargets} of the bodies' images read by ``bed``'s sensor."""
-    x = forces / (bed.mat.taxel_area_m2 * MMHG_PA)
-    images = sensor_law(x, bed.sensor_c0, bed.sensor_c1, bed.sensor_c2, bed.mat.max_mmhg)
+    images = readings(forces, bed)
     stats = R.image_stats(images, bed.mat, rule)
     posture = np.array([b.posture for b in bodies])
     return {g: group_targets(R.select(stats, posture == g)) for g in dict.fromkeys(posture.tolist())}
@@ -246,6 +245,9 @@ def run_people_calibration(args) -> int:
         targets = targets_from_images(real.pressure, real.posture, bed.mat, f"{args.real} ({real.name})")
     bodies = resting_bodies(args.bodies, bed, args.per_posture, tuple(g for g in targets.groups))
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else DEFAULT_FIT
+    if "threshold" in fit and bed.sensor_threshold_mmhg < R.DEFAULT_RULE.contact_mmhg:
+        # below the contact level a threshold changes nothing measured: start where it starts to matter
+        bed = with_params(bed, {"threshold": R.DEFAULT_RULE.contact_mmhg})
     start_loss = people_loss(simulated_stats(press_forces(bodies, bed), bodies, bed), targets)
 
     def progress(gen, evals, best):

@@ -30,8 +30,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
-                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue "
-                        "[all but tissue for --data; stiffness,spread for --targets default; stiffness,tissue,c0 "
+                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, threshold "
+                        "[stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; stiffness,tissue,threshold "
                         "for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=int, default=0, help="random seed of CMA-ES [0]")
