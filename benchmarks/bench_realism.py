@@ -2,18 +2,20 @@
 bed calibrated against those people.
 
     .venv/bin/python -m benchmarks.bench_realism [--data ../shared/data/pmd-experiment-i]
-        [--bodies 25] [--general 40] [--seed 11] [--synthetic DIR] [--out runs/bench_realism]
-        [--label "this checkout's physics"] [--calibrate [--per-posture 4 --max-evals 200]] [--no-write]
+        [--bodies 25] [--general 40] [--seed 11] [--label "this checkout's physics"]
+        [--synthetic "LABEL=DIR" ...] [--out runs/bench_realism]
+        [--calibrate [--per-posture 4 --max-evals 200]] [--no-write]
 
-1. unless ``--synthetic DIR`` names datasets made already, generates ``--bodies`` samples per gender
-   of ``general_supine`` and ``--general`` per gender of ``general`` (which holds the bodies on
-   their side) with this checkout's physics (``pressurepose generate``, seed ``--seed``) under
-   OUT/synthetic;
-2. runs ``pressurepose realism --real DATA --synthetic OUT/synthetic --out OUT/report``;
+1. unless ``--synthetic LABEL=DIR`` (repeatable) names datasets made already (by any checkout: the
+   label says which physics), generates ``--bodies`` samples per gender of ``general_supine`` and
+   ``--general`` per gender of ``general`` (which holds the bodies on their side) with this
+   checkout's physics (``pressurepose generate``, seed ``--seed``) under OUT/synthetic, labelled
+   ``--label``;
+2. for each set runs ``pressurepose realism --real DATA --synthetic DIR --out OUT/report<k>``;
 3. checks the image-only head-imprint rule against the simulated bodies' joints (a taxel over
    5 mmHg within 10 cm of the head joint, crown side of the neck: ``bench_supine_realism``);
-4. with ``--calibrate``, runs ``pressurepose calibrate --targets real`` against the report's real
-   statistics with ``--per-posture`` of the simulated bodies, and lists its fit;
+4. with ``--calibrate``, runs ``pressurepose calibrate --targets real`` against the real statistics
+   with ``--per-posture`` bodies of the last set, and lists its fit;
 
 and replaces the ``bench:realism`` section of docs/RESULTS.md (``--no-write`` only prints). To
 rerun after a physics change, run it on the new checkout with a new ``--label``. The real images
@@ -72,7 +74,7 @@ def main(argv=None) -> None:
     ap.add_argument("--bodies", type=int, default=25, help="general_supine samples per gender [25]")
     ap.add_argument("--general", type=int, default=40, help="general samples per gender [40]")
     ap.add_argument("--seed", type=int, default=11)
-    ap.add_argument("--synthetic", type=Path, help="use these datasets instead of generating")
+    ap.add_argument("--synthetic", action="append", help="LABEL=DIR: use these datasets instead of generating")
     ap.add_argument("--out", type=Path, default=Path("runs/bench_realism"))
     ap.add_argument("--label", default="this checkout's physics", help="what physics made the simulated images")
     ap.add_argument("--calibrate", action="store_true", help="also calibrate against the real statistics")
@@ -83,38 +85,43 @@ def main(argv=None) -> None:
 
     from pressurepose.eval.commands import format_realism
 
-    synthetic = args.synthetic or args.out / "synthetic"
-    if args.synthetic is None:
-        generate(synthetic, args.bodies, args.general, args.seed)
-    report_dir = args.out / "report"
-    if cli(["realism", "--real", str(args.data), "--synthetic", str(synthetic), "--out", str(report_dir)]):
-        raise SystemExit("realism failed")
-    report = json.loads((report_dir / "realism.json").read_text())
-    agree = head_rule_agreement(synthetic)
-    text = [f"### Realism: real PMD experiment I vs simulated ({args.label})\n",
-            f"`python -m benchmarks.bench_realism --label \"{args.label}\"` "
-            + (f"(simulated images from {args.synthetic})" if args.synthetic else
-               f"(general_supine {args.bodies} + general {args.general} per gender, seed {args.seed})")
-            + f"; {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, {datetime.date.today()}.\n",
+    if args.synthetic:
+        sets = [(lab, Path(d)) for lab, _, d in (x.partition("=") for x in args.synthetic)]
+    else:
+        sets = [(args.label, args.out / "synthetic")]
+        generate(sets[0][1], args.bodies, args.general, args.seed)
+    text = ["### Realism: real PMD experiment I vs simulated\n",
+            "`python -m benchmarks.bench_realism " + (" ".join(f'--synthetic "{lab}=..."' for lab, _ in sets)
+                                                     if args.synthetic else f'--label "{args.label}"')
+            + (" --calibrate" if args.calibrate else "") + f"`; {platform.processor() or platform.machine()}, "
+            f"{os.cpu_count()} CPUs, {datetime.date.today()}.\n",
             "Real: PMD-I flat-bed supine (postures 1, 8-12) and lateral (2, 3, 13, 14; the 30/60 deg wedge "
             "postures left out) images, one per recording (median of its frames), weight-normalised to mmHg and "
-            "resampled onto the simulated BodiTrak mat (the FSA mat is another mat on another mattress). "
-            "Simulated: posture from the body's roll. Areas are taxels > 5 mmHg; shares are mean shares of the "
-            "image's load per region (fractions of the body's contact extent, `pressurepose.eval.realism`). "
-            "Goals (issue 12): area within 20 % (ratio 0.8-1.2), head imprint >= 0.8, every region within 5 pp.\n",
-            format_realism(report["headline"]), "",
-            "Image-only head-imprint rule against the simulated bodies' joints (agreement; rates by joints / by "
-            "rule): " + ", ".join(f"{g} {d['agree']:.2f} ({d['joints']:.2f} / {d['rule']:.2f}, n = {d['n']})"
-                                  for g, d in agree.items()) + "."]
+            "resampled onto the simulated BodiTrak mat, clipped at its 100 mmHg (the FSA mat is another mat on "
+            "another mattress). Simulated: general_supine and general sets, posture from the body's roll. Areas "
+            "are taxels > 5 mmHg; shares are mean shares of the image's load per region (fractions of the body's "
+            "contact extent, `pressurepose.eval.realism`). Goals (issue 12): area within 20 % (ratio 0.8-1.2), "
+            "head imprint >= 0.8, every region within 5 pp.\n"]
+    for k, (label, synthetic) in enumerate(sets):
+        report_dir = args.out / f"report{k}"
+        if cli(["realism", "--real", str(args.data), "--synthetic", str(synthetic), "--out", str(report_dir)]):
+            raise SystemExit("realism failed")
+        report = json.loads((report_dir / "realism.json").read_text())
+        agree = head_rule_agreement(synthetic)
+        text += [f"**{label}**\n", format_realism(report["headline"]), "",
+                 "Image-only head-imprint rule against the simulated bodies' joints (agreement; rates by joints / "
+                 "by rule): " + ", ".join(f"{g} {d['agree']:.2f} ({d['joints']:.2f} / {d['rule']:.2f}, n = {d['n']})"
+                                          for g, d in agree.items()) + ".\n"]
     if args.calibrate:
         out = args.out / "calibrated_bed.json"
         if cli(["calibrate", "--targets", "real", "--real", str(report_dir / "realism.json"), "--bodies",
-                str(synthetic), "--per-posture", str(args.per_posture), "--max-evals", str(args.max_evals),
+                str(sets[-1][1]), "--per-posture", str(args.per_posture), "--max-evals", str(args.max_evals),
                 "--out", str(out)]):
             raise SystemExit("calibrate failed")
         rec = json.loads(out.read_text())
-        lines = [f"\nCalibrated against these statistics (`calibrate --targets real`, {args.per_posture} bodies per "
-                 f"posture re-pressed, {rec['evaluations']} evaluations, {rec['seconds']:.0f} s): loss "
+        lines = [f"Calibrated against these statistics (`calibrate --targets real`, bodies of **{sets[-1][0]}**, "
+                 f"{args.per_posture} per posture re-pressed, {rec['evaluations']} evaluations, "
+                 f"{rec['seconds']:.0f} s): loss "
                  f"{rec['start_loss']:.3f} -> {rec['loss']:.3f} (1 = every term at its goal); fitted "
                  + ", ".join(f"{k} = {rec['fitted'][k]:.4g}" for k, v in rec["constants_from"].items()
                              if v.startswith("CMA-ES")) + ".\n",

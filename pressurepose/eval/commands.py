@@ -165,7 +165,8 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_realism(args) -> int:
-    from pressurepose.eval.realism_report import draw_report, headline, load_real, load_synthetic, realism_report
+    from pressurepose.eval.realism_report import (draw_report, headline, load_real, load_synthetic,
+                                                  realism_report)
     from pressurepose.files import check_output_path, write_json_atomic
 
     out = check_output_path(args.out, "--out", directory=True)

@@ -23,16 +23,17 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
                      help="fit to the documented physical targets (default), or to statistics of real images "
                           "(real: with --real and --bodies; pressurepose.sim.calibrate_people)")
     p.add_argument("--real", help="--targets real: real-data folder (e.g. PMD experiment I) or a realism.json")
-    p.add_argument("--bodies", help="--targets real: settled bodies to re-press (dataset directory or simulate .npz)")
+    p.add_argument("--bodies",
+                   help="--targets real: settled bodies to re-press (dataset directory or simulate .npz)")
     p.add_argument("--per-posture", type=int, default=4, help="--targets real: bodies per posture group [4]")
     p.add_argument("--mat", default="boditrak_bt3510",
                    help="mat preset for --targets (boditrak_bt3510, slp, tip) [boditrak_bt3510]; --data uses its own mat")
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
-                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, threshold "
-                        "[stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; stiffness,tissue,threshold "
-                        "for --targets real]")
+                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
+                        "threshold [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                        "stiffness,tissue,threshold for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=int, default=0, help="random seed of CMA-ES [0]")
     p.add_argument("--max-evals", type=int, default=None,
