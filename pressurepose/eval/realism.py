@@ -16,22 +16,27 @@ Per image (:func:`image_stats`):
   the share of the body's weight that does not rest on the sensing area.
 
 Regions (the image-only rule, :class:`RegionRule`): the body's extent along the bed runs from the
-first to the last row with contact. Where the head leaves no imprint the first contact row is the
-shoulders', so the head end is then put one head length (``bounds[0]`` of the whole extent) above
-it. The extent is cut at fixed fractions from the head end, taken from standard segment lengths as
-fractions of stature measured from the vertex (Drillis and Contini's body-segment proportions:
-chin/neck 0.13, lower tip of the shoulder blades 0.28, iliac crest 0.40, gluteal fold 0.53, knee
-joint 0.715, ankle 0.93). A supine body's head-to-heel contact extent is its stature less a few
-centimetres, so these fractions apply to it; for bodies on their side with bent knees they are a
-coarser guide. Contact cut off by the mat's foot end shortens the extent (the real-data readers
-note that tall subjects' heels run off the FSA mat); this rule does not correct for it.
+first to the last row with contact near the body's axis (:func:`core_contact`: within 16 cm across
+the bed of the line through the rows' load centroids, so raised hands and a limb flung out do not
+count). Where the head leaves no imprint the first such row is the shoulders', so the head end is
+then put one head length (``bounds[0]`` of the whole extent) above it. The extent is cut at fixed
+fractions from the head end, taken from standard segment lengths as fractions of stature measured
+from the vertex (Drillis and Contini's body-segment proportions: chin/neck 0.13, lower tip of the
+shoulder blades 0.28, iliac crest 0.40, gluteal fold 0.53, knee joint 0.715, ankle 0.93). A supine
+body's head-to-heel contact extent is its stature less a few centimetres, so these fractions apply
+to it; for bodies on their side with bent knees they are a coarser guide. Contact cut off by the
+mat's foot end shortens the extent (the real-data readers note that tall subjects' heels run off
+the FSA mat); this rule does not correct for it.
 
-Head imprint (:func:`head_imprint`): in the top ``top_fraction`` of the contact extent, the widest
-row span (first to last contact column) of the first ``narrow rows`` is less than ``narrow_ratio``
-of the widest span below it (a head, ~15 cm across, lies above shoulders ~40 cm across), or the row
-spans dip to at most ``dip_ratio`` of the widest span above (the neck's gap between a head and the
-shoulders, in any posture). Where the head does not touch, the first contact rows are the
-shoulder blades': already wide, widening downward.
+Head imprint (:func:`head_imprint`), on the contact near the axis: in the top ``top_fraction`` of
+the extent, the widest row span (first to last contact column) of the first ``narrow_rows`` rows is
+less than ``narrow_ratio`` of the widest span below them (a head, ~15 cm across, lies above
+shoulders ~40 cm across), or a row's span dips to at most ``dip_ratio`` of the widest above it
+before the spans widen again (the neck's gap between a head and the shoulders, in any posture).
+Where the head does not touch, the first contact rows are the shoulder blades': already wide,
+widening downward. On simulated bodies the rule agrees with a joint-based test (contact within
+10 cm of the head joint) on about 3 images in 4 (``benchmarks/bench_realism.py``); most
+disagreements are bodies lying askew with a hand or arm beside the head.
 """
 
 from __future__ import annotations
