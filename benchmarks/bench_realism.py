@@ -80,6 +80,8 @@ def main(argv=None) -> None:
     ap.add_argument("--calibrate", action="store_true", help="also calibrate against the real statistics")
     ap.add_argument("--per-posture", type=int, default=4)
     ap.add_argument("--max-evals", type=int, default=200)
+    ap.add_argument("--note", default="",
+                    help="a sentence for the section's header (e.g. how --synthetic sets were made)")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
 
@@ -93,8 +95,9 @@ def main(argv=None) -> None:
     text = ["### Realism: real PMD experiment I vs simulated\n",
             "`python -m benchmarks.bench_realism " + (" ".join(f'--synthetic "{lab}=..."' for lab, _ in sets)
                                                      if args.synthetic else f'--label "{args.label}"')
-            + (" --calibrate" if args.calibrate else "") + f"`; {platform.processor() or platform.machine()}, "
-            f"{os.cpu_count()} CPUs, {datetime.date.today()}.\n",
+            + (f" --calibrate --per-posture {args.per_posture} --max-evals {args.max_evals}" if args.calibrate else "")
+            + f"`; {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, {datetime.date.today()}."
+            + (f" {args.note}" if args.note else "") + "\n",
             "Real: PMD-I flat-bed supine (postures 1, 8-12) and lateral (2, 3, 13, 14; the 30/60 deg wedge "
             "postures left out) images, one per recording (median of its frames), weight-normalised to mmHg and "
             "resampled onto the simulated BodiTrak mat, clipped at its 100 mmHg (the FSA mat is another mat on "
