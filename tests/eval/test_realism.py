@@ -132,3 +132,25 @@ def test_realism_verb_end_to_end(tmp_path):
     assert (out / "realism.png").stat().st_size > 10_000
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "nope.npz"),
                  "--out", str(out)]) == 2
+
+
+def test_load_synthetic_reads_a_dataset_directory(tmp_path):
+    from pressurepose.data.schema import GenerationConfig, Sample
+    from pressurepose.data.store import write_dataset
+    from pressurepose.eval.realism_report import load_synthetic
+
+    pose = np.zeros(72, np.float32)
+    pose[:3] = SUPINE_ROOT
+    imgs = [body(), body(head=False)]
+    samples = [Sample(pressure=p.astype(np.float32), force=(p * MAT.taxel_area_m2 * 133.322).astype(np.float32),
+                      depth=np.where(p > 0, -0.01, 1.0).astype(np.float32), contact=p > 0,
+                      betas=np.zeros(10, np.float32), pose=pose, transl=np.zeros(3, np.float32),
+                      joints=np.zeros((24, 3), np.float32), gender="f", mass=70.0, height=1.7,
+                      partition="general_supine", index=i) for i, p in enumerate(imgs)]
+    write_dataset(tmp_path / "ds", GenerationConfig("general_supine", "f", count=2, producer="synthetic"), samples)
+    s = load_synthetic(tmp_path / "ds")
+    assert s.mat == MAT and s.posture.tolist() == ["supine", "supine"]
+    st = s.stats()
+    assert st["head_imprint"].tolist() == [True, False]
+    assert st["off_mat"] == pytest.approx(1 - np.array([p.sum() for p in imgs]) * MAT.taxel_area_m2 * 133.322
+                                          / (70.0 * 9.81), rel=1e-3)
