@@ -27,6 +27,8 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
     "evaluate-real": ("pressurepose.eval.commands", "evaluate_real",
                       "score a PressureNet on real pressure images: posture, stature, mass, contact (PMD or labelled folder)"),
+    "realism": ("pressurepose.eval.commands", "realism",
+                "compare simulated pressure images with real ones by posture: area, region loads, pressures (JSON, PNG)"),
 }
 
 

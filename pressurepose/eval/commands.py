@@ -144,3 +144,60 @@ def run_evaluate_real(args) -> int:
     plt.close(fig)
     print(f"{headline}\n\n{format_real_table(s)}\n\n{format_confusion(s['confusion'])}\n\nwritten to {out}")
     return 0
+
+
+def add_realism_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = (
+        "Compare simulated pressure images with real ones, by posture (supine, lateral, prone): contact area "
+        "(taxels > 5 mmHg, and cm^2), load share by body region along the bed (head, shoulders, back, pelvis, "
+        "thighs, calves, heels: fractions of the body's contact extent, the same image-only rule for both), "
+        "peak and mean contact pressure, head-imprint rate and (simulated) load off the mat; medians, quartiles "
+        "and distances (median ratio, Kolmogorov-Smirnov, Wasserstein, share differences in percentage points). "
+        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Writes OUT/realism.json "
+        "and OUT/realism.png (distributions and example images side by side at one colour scale).")
+    p.add_argument("--real", required=True, help="real-data folder (PMD experiment I or II, or a labelled folder)")
+    p.add_argument("--synthetic", required=True,
+                   help="generated dataset directory (or a folder of datasets), or a `simulate` .npz")
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--mat", default=None, help="mat preset of a simulate .npz (default: found from its image shape)")
+    p.add_argument("--keep-wedge", action="store_true",
+                   help="also compare real images recorded on a wedge (PMD postures 4-7; left out by default: "
+                        "the body is turned 30-60 deg, not lying on its side)")
+    p.add_argument("--examples", type=int, default=3, help="example images per set and posture (default 3)")
+
+
+def run_realism(args) -> int:
+    from pressurepose.eval.realism_report import (draw_report, headline, load_real, load_synthetic,
+                                                  realism_report)
+    from pressurepose.files import check_output_path, write_json_atomic
+
+    out = check_output_path(args.out, "--out", directory=True)
+    sim = load_synthetic(args.synthetic, args.mat)
+    real = load_real(args.real, sim.mat, exclude_detail=() if args.keep_wedge else ("wedge",))
+    report = realism_report(real, sim)
+    report["headline"] = headline(report)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "realism.json", report)
+    draw_report(real, sim, report, out / "realism.png", examples=args.examples)
+    print(format_realism(report["headline"]))
+    print(f"\nwritten to {out}")
+    return 0
+
+
+def format_realism(rows: list[dict]) -> str:
+    """A Markdown table of :func:`pressurepose.eval.realism_report.headline` rows."""
+    from pressurepose.eval.realism import REGIONS
+
+    f = lambda v, fmt: "-" if v is None else fmt.format(v)  # noqa: E731
+    lines = ["| posture | images real / sim | contact taxels real / sim (ratio) | head imprint real / sim | "
+             "mean mmHg real / sim | peak mmHg real / sim | load off mat (sim) | "
+             + " | ".join(f"{r} % real / sim" for r in REGIONS) + " | worst share gap (pp) |",
+             "|---" * (8 + len(REGIONS)) + "|"]
+    for r in rows:
+        shares = " | ".join(f"{100 * r['share_real'][k]:.1f} / {100 * r['share_sim'][k]:.1f}" for k in REGIONS)
+        lines.append(
+            f"| {r['posture']} | {r['n_real']} / {r['n_sim']} | {r['area_real']:.0f} / {r['area_sim']:.0f} "
+            f"({r['area_ratio']:.2f}) | {r['head_real']:.2f} / {r['head_sim']:.2f} | {r['mean_real']:.1f} / "
+            f"{r['mean_sim']:.1f} | {r['peak_real']:.1f} / {r['peak_sim']:.1f} | {f(r['off_mat_sim'], '{:.3f}')} | "
+            f"{shares} | {r['share_worst_pp']:.1f} |")
+    return "\n".join(lines)

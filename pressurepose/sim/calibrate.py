@@ -58,20 +58,24 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("c0", -20.0, 20.0, False, "sensor offset, mmHg"),
     Parameter("c1", 0.2, 5.0, False, "sensor gain"),
     Parameter("c2", -0.02, 0.02, False, "sensor curvature, 1/mmHg"),
+    Parameter("tissue", math.log10(2e2), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
+    Parameter("threshold", 0.0, 10.0, False, "sensor threshold, mmHg: readings below it are 0"),
 )}
 
 
 def bed_params(bed: BedSpec) -> dict[str, float]:
     """The fittable constants of a bed, by :data:`PARAMETERS` name."""
     return {"stiffness": bed.stiffness_n_m3, "spread": bed.spread_length_m, "c0": bed.sensor_c0,
-            "c1": bed.sensor_c1, "c2": bed.sensor_c2}
+            "c1": bed.sensor_c1, "c2": bed.sensor_c2, "tissue": bed.tissue_modulus_pa,
+            "threshold": bed.sensor_threshold_mmhg}
 
 
 def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
     """``bed`` with some of its :data:`PARAMETERS` replaced."""
     p = {**bed_params(bed), **params}
     return dataclasses.replace(bed, stiffness_n_m3=p["stiffness"], coupling_n_m=p["stiffness"] * p["spread"] ** 2,
-                               sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"])
+                               sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"], tissue_modulus_pa=p["tissue"],
+                               sensor_threshold_mmhg=p["threshold"])
 
 
 # ------------------------------------------------------------------ objects and loss
@@ -107,7 +111,8 @@ def simulate(bed: BedSpec, fields: list[Heightfield], masses) -> tuple[np.ndarra
 def readings(force_n: np.ndarray, bed: BedSpec) -> np.ndarray:
     """The mat's readings (mmHg) of ``bed``'s sensor for taxel forces (..., rows, cols) N."""
     x = np.asarray(force_n) / (bed.mat.taxel_area_m2 * MMHG_PA)
-    return sensor_law(x, bed.sensor_c0, bed.sensor_c1, bed.sensor_c2, bed.mat.max_mmhg)
+    u = sensor_law(x, bed.sensor_c0, bed.sensor_c1, bed.sensor_c2, bed.mat.max_mmhg)
+    return np.where(u >= bed.sensor_threshold_mmhg, u, 0.0)
 
 
 def _paired_terms(sim: np.ndarray, real: np.ndarray) -> np.ndarray:

@@ -20,17 +20,25 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
         "bed as JSON (load it with pressurepose.sim.calibrate.load_fitted_bed).")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--data", help="calibration measurements (.npz, see docs/calibration.md)")
-    src.add_argument("--targets", choices=["default"], help="fit to the documented physical targets instead")
+    src.add_argument("--targets", choices=["default", "real"],
+                     help="fit to the documented physical targets (default), or to statistics of real images "
+                          "(real: with --real and --bodies; pressurepose.sim.calibrate_people)")
+    p.add_argument("--real", help="--targets real: real-data folder (e.g. PMD experiment I) or a realism.json")
+    p.add_argument("--bodies",
+                   help="--targets real: settled bodies to re-press (dataset directory or simulate .npz)")
+    p.add_argument("--per-posture", type=int, default=4, help="--targets real: bodies per posture group [4]")
     p.add_argument("--mat", default="boditrak_bt3510",
                    help="mat preset for --targets (boditrak_bt3510, slp, tip) [boditrak_bt3510]; --data uses its own mat")
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
-                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2 "
-                        "[all five for --data; stiffness,spread for --targets]")
-    p.add_argument("--popsize", type=int, default=50, help="CMA-ES population size [50]")
+                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
+                        "threshold [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                        "stiffness,tissue,threshold for --targets real]")
+    p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
-    p.add_argument("--max-evals", type=int, default=5000, help="most loss evaluations [5000]")
+    p.add_argument("--max-evals", type=int, default=None,
+                   help="most loss evaluations [5000; 400 for --targets real]")
     p.add_argument("--out", default="bed_params.json", help="output JSON [bed_params.json]")
     p.add_argument("--plot", default=None, help="also draw measured vs simulated images (PNG)")
 
@@ -45,8 +53,14 @@ def run_calibrate(args) -> int:
     check_output_path(args.out, "--out", suffixes=(".json",))
     if args.plot:
         check_output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
-    if args.max_evals < 1:
+    if args.max_evals is not None and args.max_evals < 1:
         raise BadInput(f"--max-evals is {args.max_evals}; expected at least 1 loss evaluation")
+    if args.targets == "real":
+        from pressurepose.sim.calibrate_people import run_people_calibration
+
+        return run_people_calibration(args)
+    args.popsize = 50 if args.popsize is None else args.popsize
+    args.max_evals = 5000 if args.max_evals is None else args.max_evals
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
     t0 = time.perf_counter()
 

@@ -1,0 +1,307 @@
+"""How realistic simulated pressure images are: per-image statistics, their distributions, and
+distances between simulated and real sets.
+
+Every function works on pressure images ``(N, rows, cols)`` in mmHg (row 0 at the head end) with
+the mat's geometry (:class:`~pressurepose.sim.bed.MatSpec`); none needs joint labels, so real and
+simulated images are measured by the same rule.
+
+Per image (:func:`image_stats`):
+
+* ``contact_taxels`` / ``contact_cm2``: taxels above ``contact_mmhg`` (5 mmHg), and their area;
+* ``peak_mmhg``: the highest reading; ``mean_mmhg``: the mean over the contact taxels;
+* ``head_imprint``: the head touches the mat (:func:`head_imprint`);
+* ``share_<region>``: the share of the image's load (sum of all readings) in each body region along
+  the bed (:data:`REGIONS`; :func:`region_shares`); they sum to 1;
+* ``off_mat`` (simulated images only, given their force and the body's mass): ``1 - F / (m g)``,
+  the share of the body's weight that does not rest on the sensing area.
+
+Regions (the image-only rule, :class:`RegionRule`): the body's extent along the bed runs from the
+first to the last row with contact near the body's axis (:func:`core_contact`: within 16 cm across
+the bed of the line through the rows' load centroids, so raised hands and a limb flung out do not
+count). Where the head leaves no imprint the first such row is the shoulders', so the head end is
+then put one head length (``bounds[0]`` of the whole extent) above it. The extent is cut at fixed
+fractions from the head end, taken from standard segment lengths as fractions of stature measured
+from the vertex (Drillis and Contini's body-segment proportions: chin/neck 0.13, lower tip of the
+shoulder blades 0.28, iliac crest 0.40, gluteal fold 0.53, knee joint 0.715, ankle 0.93). A supine
+body's head-to-heel contact extent is its stature less a few centimetres, so these fractions apply
+to it; for bodies on their side with bent knees they are a coarser guide. Contact cut off by the
+mat's foot end shortens the extent (the real-data readers note that tall subjects' heels run off
+the FSA mat); this rule does not correct for it.
+
+Head imprint (:func:`head_imprint`), on the contact near the axis: in the top ``top_fraction`` of
+the extent, the widest row span (first to last contact column) of the first ``narrow_rows`` rows is
+less than ``narrow_ratio`` of the widest span below them (a head, ~15 cm across, lies above
+shoulders ~40 cm across), or a row's span dips to at most ``dip_ratio`` of the widest above it
+before the spans widen again (the neck's gap between a head and the shoulders, in any posture).
+Where the head does not touch, the first contact rows are the shoulder blades': already wide,
+widening downward. On simulated bodies the rule agrees with a joint-based test (contact within
+10 cm of the head joint) on about 3 images in 4 (``benchmarks/bench_realism.py``); most
+disagreements are bodies lying askew with a hand or arm beside the head.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+from pressurepose.sim.bed import MatSpec
+
+GRAVITY = 9.81  # as pressurepose.sim.sensor
+REGIONS = ("head", "shoulders", "back", "pelvis", "thighs", "calves", "heels")
+POSTURE_GROUPS = {"supine": "supine", "left": "lateral", "right": "lateral", "lateral": "lateral",
+                  "prone": "prone"}
+SCALAR_STATS = ("contact_taxels", "contact_cm2", "peak_mmhg", "mean_mmhg")
+
+
+@dataclass(frozen=True)
+class RegionRule:
+    """How images are measured (see the module docstring).
+
+    contact_mmhg: a taxel above it is in contact. bounds: the 6 cuts between the 7 :data:`REGIONS`
+    as fractions of the head-to-heel contact extent from the head end. top_fraction: the part of
+    the extent searched for a head. narrow_rows: rows at the top measured for the narrow test.
+    narrow_ratio, dip_ratio: the head tests' thresholds. core_half_width_m: the head test and the
+    body's extent look only at contact within this distance across the bed of the image's load
+    centroid (hands raised beside or above the head lie outside it).
+    """
+
+    contact_mmhg: float = 5.0
+    bounds: tuple[float, ...] = (0.13, 0.28, 0.40, 0.53, 0.715, 0.93)
+    top_fraction: float = 0.30
+    narrow_rows: int = 3
+    narrow_ratio: float = 0.5
+    dip_ratio: float = 0.5
+    core_half_width_m: float = 0.16
+
+    def __post_init__(self):
+        b = np.asarray(self.bounds, dtype=np.float64)
+        if b.shape != (len(REGIONS) - 1,) or np.any(np.diff(b) <= 0) or b[0] <= 0 or b[-1] >= 1:
+            raise BadInput(f"region bounds {self.bounds!r}: expected {len(REGIONS) - 1} increasing fractions in (0, 1)")
+        if not self.contact_mmhg >= 0 or not 0 < self.top_fraction <= 1 or self.narrow_rows < 1:
+            raise BadInput("contact_mmhg must be >= 0, top_fraction in (0, 1], narrow_rows >= 1")
+
+
+DEFAULT_RULE = RegionRule()
+
+
+def _images(images) -> np.ndarray:
+    p = np.asarray(images, dtype=np.float64)
+    if p.ndim == 2:
+        p = p[None]
+    if p.ndim != 3 or p.shape[0] == 0:
+        raise BadInput(f"pressure images have shape {p.shape}; expected (N, rows, cols) mmHg")
+    if not np.all(np.isfinite(p)) or np.any(p < 0):
+        raise BadInput("pressure images must be finite and non-negative (mmHg)")
+    return p
+
+
+def contact_area(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE) -> tuple[np.ndarray, np.ndarray]:
+    """(taxels (N,) int, area (N,) cm^2) above ``rule.contact_mmhg``."""
+    p = _images(images)
+    _check_mat(p, mat)
+    n = (p > rule.contact_mmhg).sum((1, 2))
+    return n, n * mat.taxel_area_m2 * 1e4
+
+
+def row_spans(contact) -> np.ndarray:
+    """(N, rows) per row of contact maps (N, rows, cols) bool, taxels from the first to the last
+    contact column (0 without contact)."""
+    on = np.asarray(contact, bool)
+    cols = np.arange(on.shape[2])
+    first = np.where(on, cols, on.shape[2]).min(2)
+    last = np.where(on, cols, -1).max(2)
+    return np.where(last >= first, last - first + 1, 0)
+
+
+def core_contact(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE) -> np.ndarray:
+    """(N, rows, cols) bool: contact within ``rule.core_half_width_m`` across the bed of each image's
+    body axis (the line through the rows' load centroids, fitted by load-weighted least squares, so a
+    body lying askew is followed; raised hands mostly fall outside)."""
+    p = _images(images)
+    _check_mat(p, mat)
+    cols = np.arange(p.shape[2]) + 0.5
+    rows = np.arange(p.shape[1]) + 0.5
+    w = p.sum(2)                                               # (N, rows) load per row
+    c = (p @ cols) / np.maximum(w, 1e-12)                      # (N, rows) centroid column per row
+    sw = np.maximum(w.sum(1), 1e-12)
+    rm, cm = (w @ rows) / sw, (w * c).sum(1) / sw
+    var = (w * (rows - rm[:, None]) ** 2).sum(1)
+    slope = np.where(var > 0, (w * (rows - rm[:, None]) * (c - cm[:, None])).sum(1) / np.maximum(var, 1e-12), 0.0)
+    axis = cm[:, None] + slope[:, None] * (rows - rm[:, None])  # (N, rows) axis column per row
+    near = np.abs(cols[None, None, :] - axis[:, :, None]) * mat.pitch_col_m <= rule.core_half_width_m
+    return (p > rule.contact_mmhg) & near
+
+
+def contact_rows(contact) -> np.ndarray:
+    """(N, 2) int first and last row with contact of contact maps (N, rows, cols) bool; (-1, -1)
+    for a map without contact."""
+    any_row = np.asarray(contact, bool).any(2)
+    rows = np.arange(any_row.shape[1])
+    first = np.where(any_row, rows, any_row.shape[1]).min(1)
+    last = np.where(any_row, rows, -1).max(1)
+    return np.where((last >= 0)[:, None], np.stack([first, last], 1), -1)
+
+
+def head_imprint(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE) -> np.ndarray:
+    """(N,) bool: the head leaves an imprint (the module docstring's narrow-top or neck-dip test,
+    on :func:`core_contact`)."""
+    core = core_contact(images, mat, rule)
+    spans = row_spans(core)
+    ext = contact_rows(core)
+    out = np.zeros(len(spans), bool)
+    for i, (first, last) in enumerate(ext):
+        if first < 0:
+            continue
+        top = spans[i, first:first + max(2, int(math.ceil(rule.top_fraction * (last - first + 1))))]
+        if len(top) <= rule.narrow_rows:
+            continue
+        narrow = top[:rule.narrow_rows].max() < rule.narrow_ratio * top[rule.narrow_rows:].max()
+        above = np.maximum.accumulate(top)
+        dip = np.any((top[1:] <= rule.dip_ratio * above[:-1]) & (np.maximum.accumulate(top[::-1])[::-1][1:] >
+                                                                 top[1:]))
+        out[i] = narrow or dip
+    return out
+
+
+def body_extent(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
+    """(N, 2) head end and foot end of the body along the bed, in rows (continuous: row r spans
+    [r, r + 1)), from the first and last row of :func:`core_contact`; NaN without contact. ``head``
+    (N,) bool: :func:`head_imprint` (computed if None); where it is False the head end is moved one
+    head length above the first contact row."""
+    ext = contact_rows(core_contact(images, mat, rule)).astype(np.float64)
+    head = head_imprint(images, mat, rule) if head is None else np.asarray(head, bool)
+    start, end = ext[:, 0], ext[:, 1] + 1.0
+    h = rule.bounds[0]
+    start = np.where(head, start, start - h / (1 - h) * (end - start))
+    out = np.stack([start, end], 1)
+    out[ext[:, 0] < 0] = np.nan
+    return out
+
+
+def region_shares(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
+    """(N, 7) share of each image's load (sum of readings) in each of :data:`REGIONS`; rows sum to 1
+    (NaN for an image without contact). A row's load is split between regions by how much of the
+    row each covers; load outside the body's extent counts to the nearest end region."""
+    p = _images(images)
+    row_load = p.sum(2)
+    ext = body_extent(p, mat, rule, head)
+    cuts = np.concatenate([[-np.inf], rule.bounds, [np.inf]])
+    out = np.full((len(p), len(REGIONS)), np.nan)
+    edges = np.arange(p.shape[1] + 1, dtype=np.float64)
+    for i, (a, b) in enumerate(ext):
+        if not np.isfinite(a) or row_load[i].sum() <= 0:
+            continue
+        f = (edges - a) / (b - a)  # row edges as fractions of the extent
+        lo, hi = f[:-1], f[1:]
+        cover = np.clip(np.minimum(hi[:, None], cuts[None, 1:]) - np.maximum(lo[:, None], cuts[None, :-1]), 0, None)
+        cover /= (hi - lo)[:, None]
+        out[i] = row_load[i] @ cover / row_load[i].sum()
+    return out
+
+
+def image_stats(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, *, force_n=None, mass_kg=None) -> dict:
+    """Per-image statistics {name: (N,) array} (see the module docstring). ``force_n`` (N, rows,
+    cols) and ``mass_kg`` (N,) add ``off_mat``."""
+    p = _images(images)
+    _check_mat(p, mat)
+    taxels, cm2 = contact_area(p, mat, rule)
+    on = p > rule.contact_mmhg
+    head = head_imprint(p, mat, rule)
+    shares = region_shares(p, mat, rule, head)
+    with np.errstate(invalid="ignore"):
+        mean = np.where(taxels > 0, (p * on).sum((1, 2)) / np.maximum(taxels, 1), np.nan)
+    out = {"contact_taxels": taxels.astype(np.float64), "contact_cm2": cm2, "peak_mmhg": p.max((1, 2)),
+           "mean_mmhg": mean, "head_imprint": head}
+    out.update({f"share_{r}": shares[:, k] for k, r in enumerate(REGIONS)})
+    if force_n is not None and mass_kg is not None:
+        f = np.asarray(force_n, dtype=np.float64).reshape(len(p), -1).sum(1)
+        m = np.asarray(mass_kg, dtype=np.float64).reshape(-1)
+        if m.shape != (len(p),):
+            raise BadInput(f"mass_kg has shape {m.shape}; expected ({len(p)},)")
+        out["off_mat"] = 1.0 - f / (m * GRAVITY)
+    return out
+
+
+def select(stats: dict, keep) -> dict:
+    """The statistics of the images where ``keep`` (N,) is True."""
+    return {k: np.asarray(v)[keep] for k, v in stats.items()}
+
+
+def summarise(stats: dict) -> dict:
+    """Distribution summaries: for each numeric statistic {n, median, q1, q3, mean}; for
+    ``head_imprint`` {n, rate}. NaNs (images without contact) are left out."""
+    out = {}
+    for k, v in stats.items():
+        v = np.asarray(v)
+        if k == "head_imprint":
+            out[k] = {"n": int(v.size), "rate": float(v.mean()) if v.size else None}
+            continue
+        v = v[np.isfinite(v)].astype(np.float64)
+        if v.size == 0:
+            out[k] = {"n": 0, "median": None, "q1": None, "q3": None, "mean": None}
+            continue
+        q1, med, q3 = np.percentile(v, [25, 50, 75])
+        out[k] = {"n": int(v.size), "median": float(med), "q1": float(q1), "q3": float(q3), "mean": float(v.mean())}
+    return out
+
+
+def ks_statistic(a, b) -> float:
+    """Two-sample Kolmogorov-Smirnov statistic: the largest gap between the empirical CDFs."""
+    a, b = np.sort(np.asarray(a, float)), np.sort(np.asarray(b, float))
+    x = np.concatenate([a, b])
+    return float(np.max(np.abs(np.searchsorted(a, x, "right") / len(a) - np.searchsorted(b, x, "right") / len(b))))
+
+
+def wasserstein(a, b) -> float:
+    """Earth mover's (Wasserstein-1) distance between two samples, in their unit."""
+    a, b = np.sort(np.asarray(a, float)), np.sort(np.asarray(b, float))
+    x = np.sort(np.concatenate([a, b]))
+    dx = np.diff(x)
+    ca = np.searchsorted(a, x[:-1], "right") / len(a)
+    cb = np.searchsorted(b, x[:-1], "right") / len(b)
+    return float(np.sum(np.abs(ca - cb) * dx))
+
+
+def compare(sim: dict, real: dict) -> dict:
+    """Distances between simulated and real per-image statistics (both as :func:`image_stats`).
+
+    Per numeric statistic: ``median_ratio`` (simulated median / real median), ``ks`` and
+    ``wasserstein``; for region shares also ``mean_diff_pp``, the difference of the mean shares in
+    percentage points; for ``head_imprint`` ``rate_diff`` (simulated - real rate).
+    """
+    out = {}
+    for k in real:
+        if k not in sim or k == "off_mat":
+            continue
+        s, r = np.asarray(sim[k]), np.asarray(real[k])
+        if k == "head_imprint":
+            if s.size and r.size:
+                out[k] = {"rate_diff": float(s.mean() - r.mean())}
+            continue
+        s, r = s[np.isfinite(s)].astype(float), r[np.isfinite(r)].astype(float)
+        if s.size == 0 or r.size == 0:
+            continue
+        rm = float(np.median(r))
+        d = {"median_ratio": float(np.median(s) / rm) if rm else None, "ks": ks_statistic(s, r),
+             "wasserstein": wasserstein(s, r)}
+        if k.startswith("share_"):
+            d["mean_diff_pp"] = float(100 * (s.mean() - r.mean()))
+        out[k] = d
+    return out
+
+
+def posture_group(labels) -> np.ndarray:
+    """(N,) 'supine', 'lateral', 'prone' or '' (not compared) of posture labels (supine, left,
+    right, lateral, prone, others)."""
+    return np.array([POSTURE_GROUPS.get(str(x), "") for x in np.asarray(labels).reshape(-1)], dtype=object).astype(str)
+
+
+def _check_mat(p: np.ndarray, mat: MatSpec) -> None:
+    if not isinstance(mat, MatSpec):
+        raise BadInput(f"mat is {type(mat).__name__}; expected a MatSpec")
+    if p.shape[1:] != mat.shape:
+        raise BadInput(f"pressure images are {p.shape[1]} x {p.shape[2]}; the {mat.name} mat is "
+                       f"{mat.rows} x {mat.cols}")

@@ -1,0 +1,218 @@
+"""The realism report: statistics of real and simulated pressure images, side by side by posture.
+
+* :func:`load_real`: a real-data folder (PMD or a generic labelled folder, through
+  :func:`pressurepose.data.readers.real.read_real`) prepared as the simulated images are made:
+  weight-normalised mmHg resampled onto the simulated mat (:func:`pressurepose.data.realprep.prepare`);
+  inclined-bed and weak recordings, and (by default) images whose source posture names a wedge,
+  are left out.
+* :func:`load_synthetic`: a generated dataset (directory) or a ``pressurepose simulate`` ``.npz``;
+  the posture of each sample is its body's (roll of the root, :func:`pressurepose.eval.posture.posture_of`).
+* :func:`realism_report`: per posture group (supine, lateral, prone) the summaries of both sets
+  (:func:`pressurepose.eval.realism.summarise`) and their distances (:func:`~.realism.compare`).
+* :func:`draw_report`: the distributions side by side and example images at one colour scale.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pressurepose.errors import BadInput
+from pressurepose.eval import realism as R
+from pressurepose.sim.bed import MATS, MatSpec, get_mat
+
+
+@dataclass(frozen=True, eq=False)
+class ImageSet:
+    """N pressure images (N, rows, cols) mmHg on ``mat`` with their posture group (N,) str and, for
+    simulated images, taxel forces (N, rows, cols) N and body masses (N,) kg (else None)."""
+
+    name: str
+    pressure: np.ndarray
+    posture: np.ndarray
+    mat: MatSpec
+    force: np.ndarray | None = None
+    mass: np.ndarray | None = None
+
+    def stats(self, rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
+        return R.image_stats(self.pressure, self.mat, rule, force_n=self.force, mass_kg=self.mass)
+
+
+def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge",), frames: str = "one",
+              weak_fraction: float = 0.1) -> ImageSet:
+    """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring)."""
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.data.realprep import prepare
+    from pressurepose.eval.real import weak_images
+
+    real = read_real(folder, frames=frames)
+    group = R.posture_group(real.posture)
+    wedge = np.array([any(w in str(d).lower() for w in exclude_detail) for d in real.detail], bool)
+    keep = (group != "") & ~wedge & ~weak_images(real, weak_fraction)
+    if not keep.any():
+        raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label")
+    r = real.select(keep)
+    x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
+    return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat)
+
+
+def _mat_for_shape(shape, mat_name: str | None) -> MatSpec:
+    if mat_name is not None:
+        mat = get_mat(mat_name)
+        if mat.shape != tuple(shape):
+            raise BadInput(f"the images are {shape[0]} x {shape[1]}; mat {mat_name!r} is {mat.rows} x {mat.cols}")
+        return mat
+    found = [m for m in MATS.values() if m.shape == tuple(shape)]
+    if len(found) != 1:
+        raise BadInput(f"cannot tell the mat of {shape[0]} x {shape[1]} images ({len(found)} presets fit); give --mat")
+    return found[0]
+
+
+def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
+    """Simulated images of a generated dataset (a directory or folder of datasets) or of a
+    ``pressurepose simulate`` output (``.npz``, read without pickle; its mat found from the image
+    shape unless ``mat_name`` is given)."""
+    from pressurepose.eval.posture import posture_of
+
+    p = Path(path)
+    if p.is_file():
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                need = ("pressure", "force", "pose", "mass")
+                missing = [k for k in need if k not in z.files]
+                if missing:
+                    raise BadInput(f"{p} lacks {', '.join(missing)}; expected a `pressurepose simulate` .npz")
+                arr = {k: z[k] for k in need}
+        except (OSError, ValueError) as exc:
+            raise BadInput(f"{p} is not a readable .npz ({exc})") from None
+        mat = _mat_for_shape(arr["pressure"].shape[1:], mat_name)
+    elif p.is_dir():
+        from pressurepose.data.dataset import DatasetReader
+
+        reader = DatasetReader(p)
+        arr = reader.load_arrays(("pressure", "force", "pose", "mass"), image_dtype=np.float32,
+                                 label_dtype=np.float64)
+        mat = get_mat(reader.datasets[0].config.mat)
+    else:
+        raise BadInput(f"synthetic data {str(p)!r} does not exist; expected a dataset directory or a simulate .npz")
+    group = R.posture_group(posture_of(np.asarray(arr["pose"], dtype=np.float64)))
+    return ImageSet(f"simulated ({p.name})", np.asarray(arr["pressure"], dtype=np.float64), group, mat,
+                    np.asarray(arr["force"], dtype=np.float64), np.asarray(arr["mass"], dtype=np.float64).reshape(-1))
+
+
+def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
+    """{'rule', 'mat', 'postures': {group: {'real': summary, 'simulated': summary, 'distance':
+    compare(...)}}} over the posture groups present in both sets (BadInput when none is)."""
+    if real.mat.shape != sim.mat.shape:
+        raise BadInput(f"real images are on a {real.mat.shape} mat, simulated ones on {sim.mat.shape}")
+    rs, ss = real.stats(rule), sim.stats(rule)
+    groups = [g for g in ("supine", "lateral", "prone") if (real.posture == g).any() and (sim.posture == g).any()]
+    if not groups:
+        raise BadInput(f"real ({sorted(set(real.posture))}) and simulated ({sorted(set(sim.posture))}) images "
+                       f"share no posture")
+    out = {"rule": {"contact_mmhg": rule.contact_mmhg, "regions": list(R.REGIONS), "bounds": list(rule.bounds)},
+           "mat": {"name": sim.mat.name, "rows": sim.mat.rows, "cols": sim.mat.cols,
+                   "pitch_m": [sim.mat.pitch_row_m, sim.mat.pitch_col_m]},
+           "real_name": real.name, "simulated_name": sim.name, "postures": {}}
+    for g in groups:
+        r, s = R.select(rs, real.posture == g), R.select(ss, sim.posture == g)
+        out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r)}
+    return out
+
+
+def headline(report: dict) -> list[dict]:
+    """One row per posture: the numbers issue 12 sets goals on (contact area, head imprint, load
+    share per region, pressures, load off the mat)."""
+    rows = []
+    for g, d in report["postures"].items():
+        r, s = d["real"], d["simulated"]
+        rows.append({
+            "posture": g, "n_real": r["contact_taxels"]["n"], "n_sim": s["contact_taxels"]["n"],
+            "area_real": r["contact_taxels"]["median"], "area_sim": s["contact_taxels"]["median"],
+            "area_ratio": d["distance"]["contact_taxels"]["median_ratio"],
+            "head_real": r["head_imprint"]["rate"], "head_sim": s["head_imprint"]["rate"],
+            "mean_real": r["mean_mmhg"]["median"], "mean_sim": s["mean_mmhg"]["median"],
+            "peak_real": r["peak_mmhg"]["median"], "peak_sim": s["peak_mmhg"]["median"],
+            "share_real": {k: r[f"share_{k}"]["mean"] for k in R.REGIONS},
+            "share_sim": {k: s[f"share_{k}"]["mean"] for k in R.REGIONS},
+            "share_worst_pp": max(abs(d["distance"][f"share_{k}"]["mean_diff_pp"]) for k in R.REGIONS),
+            "off_mat_sim": s.get("off_mat", {}).get("median"),
+        })
+    return rows
+
+
+def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.RegionRule = R.DEFAULT_RULE,
+                examples: int = 3, seed: int = 0):
+    """PNG at ``path``: per posture, box plots of contact area, mean and peak pressure and region
+    load shares (real vs simulated), and ``examples`` real and simulated images at one colour scale."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pressurepose.files import save_figure_atomic
+
+    groups = list(report["postures"])
+    rs, ss = real.stats(rule), sim.stats(rule)
+    rng = np.random.default_rng(seed)
+    fig = plt.figure(figsize=(15, 6.2 * len(groups)))
+    outer = fig.add_gridspec(2 * len(groups), 1, height_ratios=[1, 1.35] * len(groups), hspace=0.5,
+                             top=1 - 0.7 / len(groups) / 6.2, bottom=0.03)
+    colours = {"real": "tab:orange", "simulated": "tab:blue"}
+    vmax = float(np.percentile(np.concatenate([real.pressure[real.pressure > rule.contact_mmhg],
+                                               sim.pressure[sim.pressure > rule.contact_mmhg]]), 99))
+    for gi, g in enumerate(groups):
+        r_sel, s_sel = real.posture == g, sim.posture == g
+        row = outer[2 * gi].subgridspec(1, 5, width_ratios=[1, 1, 1, 0.2, 3.2], wspace=0.35)
+        for k, (key, label) in enumerate((("contact_cm2", "contact area, cm$^2$"), ("mean_mmhg", "mean contact, mmHg"),
+                                          ("peak_mmhg", "peak, mmHg"))):
+            ax = fig.add_subplot(row[k])
+            data = [_finite(rs[key][r_sel]), _finite(ss[key][s_sel])]
+            bp = ax.boxplot(data, widths=0.6, patch_artist=True, showfliers=True)
+            for patch, c in zip(bp["boxes"], colours.values()):
+                patch.set_facecolor(c)
+                patch.set_alpha(0.6)
+            ax.set_xticks([1, 2], [f"real\n{len(data[0])}", f"sim\n{len(data[1])}"], fontsize=9)
+            ax.set_title(f"{g}: {label}", fontsize=10)
+        ax = fig.add_subplot(row[4])
+        x = np.arange(len(R.REGIONS))
+        for off, (name, st, sel) in zip((-0.2, 0.2), (("real", rs, r_sel), ("simulated", ss, s_sel))):
+            vals = [_finite(st[f"share_{reg}"][sel]) for reg in R.REGIONS]
+            bp = ax.boxplot(vals, positions=x + off, widths=0.35, patch_artist=True, showfliers=False)
+            for patch in bp["boxes"]:
+                patch.set_facecolor(colours[name])
+                patch.set_alpha(0.6)
+        head = report["postures"][g]
+        ax.set_xticks(x, [f"{reg}" for reg in R.REGIONS], fontsize=9)
+        ax.set_xlim(-0.6, len(R.REGIONS) - 0.4)
+        ax.set_ylabel("share of the image's load")
+        ax.set_title(f"{g}: load share by region (orange real, blue simulated)", fontsize=10)
+        ax.set_xlabel(f"head imprint: real {head['real']['head_imprint']['rate']:.0%}, simulated "
+                      f"{head['simulated']['head_imprint']['rate']:.0%}", fontsize=10)
+        imgs = outer[2 * gi + 1].subgridspec(1, 2 * examples + 1, wspace=0.08, width_ratios=[1] * 2 * examples + [0.08])
+        im = None
+        for j, (name, st, sel, ps) in enumerate((("real", rs, r_sel, real.pressure),
+                                                 ("simulated", ss, s_sel, sim.pressure))):
+            idx = np.flatnonzero(sel)
+            pick = rng.choice(idx, size=min(examples, len(idx)), replace=False) if len(idx) else []
+            for e, i in enumerate(pick):
+                ax = fig.add_subplot(imgs[j * examples + e])
+                im = ax.imshow(ps[i], vmin=0, vmax=vmax, cmap="viridis", aspect="equal")
+                ax.set_title(f"{name} {g}\n{int(st['contact_taxels'][i])} taxels, head "
+                             f"{'yes' if st['head_imprint'][i] else 'no'}", fontsize=8)
+                ax.set_xticks([])
+                ax.set_yticks([])
+        if im is not None:
+            fig.colorbar(im, cax=fig.add_subplot(imgs[-1]), label="mmHg")
+    fig.suptitle(f"{real.name} vs {sim.name} on the {sim.mat.name} mat (contact > {rule.contact_mmhg:g} mmHg)",
+                 fontsize=12, y=0.999)
+    save_figure_atomic(fig, path, dpi=90)
+    plt.close(fig)
+    return Path(path)
+
+
+def _finite(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    return v[np.isfinite(v)]

@@ -1,0 +1,156 @@
+"""Realism statistics on hand-made images with known answers, and the realism verb end to end."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pressurepose.errors import BadInput
+from pressurepose.eval import realism as R
+from pressurepose.sim.bed import get_mat
+from tests.data.realfolders import write_labelled
+
+MAT = get_mat("boditrak_bt3510")
+SUPINE_ROOT = np.array([0.0, -np.pi / np.sqrt(2), -np.pi / np.sqrt(2)])  # pi about (0, -1, -1)/sqrt(2)
+
+
+def body(head: bool = True, arms_up: bool = False) -> np.ndarray:
+    """A supine footprint (64, 27) mmHg: head rows 2-7 (5 taxels wide, 20 mmHg), shoulders and
+    back rows 10-19 (15 wide, 10 mmHg), pelvis and thighs rows 20-49 (11 wide, 15 mmHg), calves
+    and heels rows 50-59 (9 wide, 8 mmHg)."""
+    img = np.zeros((64, 27))
+    if head:
+        img[2:8, 11:16] = 20.0
+    img[10:20, 6:21] = 10.0
+    img[20:50, 8:19] = 15.0
+    img[50:60, 9:18] = 8.0
+    if arms_up:  # one forearm and hand raised above the head, far to the side
+        img[0:6, 1:3] = 12.0
+    return img
+
+
+def test_contact_area_counts_taxels_over_threshold():
+    img = np.zeros((64, 27))
+    img[10:20, 5:10] = 6.0   # 50 over 5 mmHg
+    img[30:32, 5:10] = 5.0   # exactly 5: not contact
+    img[40, 0] = 100.0       # 1 more
+    n, cm2 = R.contact_area(img, MAT)
+    assert n.tolist() == [51]
+    assert cm2[0] == pytest.approx(51 * 2.86 ** 2)
+
+
+def test_region_shares_sum_to_one_and_follow_the_rule():
+    img = body()
+    shares = R.region_shares(img, MAT)[0]
+    assert shares.sum() == pytest.approx(1.0)
+    # extent rows 2..59 (58 rows from y = 2 to y = 60); head region 0 .. 0.13 of it: rows 2 .. 9.54
+    a, b = 2.0, 60.0
+    cut = a + 0.13 * (b - a)
+    row_load = img.sum(1)
+    head = row_load[:int(cut)].sum() + (cut - int(cut)) * row_load[int(cut)]
+    assert shares[0] == pytest.approx(head / img.sum())
+    # the heels region (0.93 .. 1 of the extent, rows 55.94 .. 60) holds the calves' 8 mmHg x 9 taxels rows
+    heel = (60 - (a + 0.93 * (b - a))) * 9 * 8.0
+    assert shares[-1] == pytest.approx(heel / img.sum())
+
+
+def test_head_imprint_narrow_head_above_shoulders():
+    imgs = np.stack([body(), body(head=False), body(arms_up=True), body(head=False, arms_up=True)])
+    assert R.head_imprint(imgs, MAT).tolist() == [True, False, True, False]
+
+
+def test_no_head_puts_the_head_end_a_head_length_above_the_shoulders():
+    shares = R.region_shares(body(head=False), MAT)[0]
+    assert shares[0] == 0.0
+    assert shares.sum() == pytest.approx(1.0)
+    ext = R.body_extent(body(head=False), MAT)[0]
+    assert ext[1] == 60.0
+    assert (10.0 - ext[0]) / (ext[1] - ext[0]) == pytest.approx(0.13)
+
+
+def test_image_stats_pressures_and_off_mat():
+    img = body()
+    force = img * MAT.taxel_area_m2 * 133.322
+    mass = force.sum() / 9.81 / 0.9  # 10 % of the weight off the mat
+    s = R.image_stats(img[None], MAT, force_n=force[None], mass_kg=[mass])
+    assert s["peak_mmhg"][0] == 20.0
+    on = img > 5
+    assert s["mean_mmhg"][0] == pytest.approx(img[on].mean())
+    assert s["off_mat"][0] == pytest.approx(0.1)
+    assert s["head_imprint"][0]
+    empty = R.image_stats(np.zeros((1, 64, 27)), MAT)
+    assert empty["contact_taxels"][0] == 0 and np.isnan(empty["share_head"][0]) and not empty["head_imprint"][0]
+
+
+def test_summaries_and_distances():
+    a = np.arange(1.0, 101.0)
+    s = R.summarise({"x": a, "head_imprint": np.array([True, False, True, True])})
+    assert s["x"]["median"] == 50.5 and s["x"]["q1"] == pytest.approx(25.75)
+    assert s["head_imprint"]["rate"] == 0.75
+    assert R.ks_statistic(a, a) == 0.0
+    assert R.ks_statistic(a, a + 1000) == 1.0
+    assert R.wasserstein(a, a + 3.0) == pytest.approx(3.0)
+    d = R.compare({"contact_taxels": a * 2, "share_head": np.full(4, 0.1)},
+                  {"contact_taxels": a, "share_head": np.full(4, 0.05)})
+    assert d["contact_taxels"]["median_ratio"] == pytest.approx(2.0)
+    assert d["share_head"]["mean_diff_pp"] == pytest.approx(5.0)
+
+
+def test_bad_input_names_the_problem():
+    with pytest.raises(BadInput, match="64 x 27"):
+        R.image_stats(np.zeros((2, 10, 10)), MAT)
+    with pytest.raises(BadInput, match="non-negative"):
+        R.image_stats(-np.ones((1, 64, 27)), MAT)
+    with pytest.raises(BadInput, match="bounds"):
+        R.RegionRule(bounds=(0.5, 0.4, 0.6, 0.7, 0.8, 0.9))
+
+
+def test_realism_verb_end_to_end(tmp_path):
+    from pressurepose.cli import main
+    from pressurepose.eval.posture import posture_of
+
+    rng = np.random.default_rng(0)
+    real = np.stack([body() * rng.uniform(0.9, 1.1) for _ in range(4)] + [body(head=False)] * 2)
+    write_labelled(tmp_path / "real", real, ["supine"] * 6, {"preset": "boditrak_bt3510", "units": "mmHg"})
+    pose = np.zeros((3, 72))
+    pose[:, :3] = SUPINE_ROOT
+    assert set(posture_of(pose)) == {"supine"}
+    sim = np.stack([body(), body(head=False), body()])
+    force = sim * MAT.taxel_area_m2 * 133.322
+    np.savez(tmp_path / "sim.npz", pressure=sim, force=force, pose=pose, mass=force.sum((1, 2)) / 9.81)
+    out = tmp_path / "out"
+    assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "sim.npz"),
+                 "--out", str(out)]) == 0
+    rep = json.loads((out / "realism.json").read_text())
+    sup = rep["postures"]["supine"]
+    assert sup["real"]["head_imprint"]["rate"] == pytest.approx(4 / 6)
+    assert sup["simulated"]["head_imprint"]["rate"] == pytest.approx(2 / 3)
+    assert sup["simulated"]["off_mat"]["median"] == pytest.approx(0.0, abs=1e-9)
+    assert sum(sup["real"][f"share_{r}"]["mean"] for r in R.REGIONS) == pytest.approx(1.0)
+    assert (out / "realism.png").stat().st_size > 10_000
+    assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "nope.npz"),
+                 "--out", str(out)]) == 2
+
+
+def test_load_synthetic_reads_a_dataset_directory(tmp_path):
+    from pressurepose.data.schema import GenerationConfig, Sample
+    from pressurepose.data.store import write_dataset
+    from pressurepose.eval.realism_report import load_synthetic
+
+    pose = np.zeros(72, np.float32)
+    pose[:3] = SUPINE_ROOT
+    imgs = [body(), body(head=False)]
+    samples = [Sample(pressure=p.astype(np.float32), force=(p * MAT.taxel_area_m2 * 133.322).astype(np.float32),
+                      depth=np.where(p > 0, -0.01, 1.0).astype(np.float32), contact=p > 0,
+                      betas=np.zeros(10, np.float32), pose=pose, transl=np.zeros(3, np.float32),
+                      joints=np.zeros((24, 3), np.float32), gender="f", mass=70.0, height=1.7,
+                      partition="general_supine", index=i) for i, p in enumerate(imgs)]
+    write_dataset(tmp_path / "ds", GenerationConfig("general_supine", "f", count=2, producer="synthetic"), samples)
+    s = load_synthetic(tmp_path / "ds")
+    assert s.mat == MAT and s.posture.tolist() == ["supine", "supine"]
+    st = s.stats()
+    assert st["head_imprint"].tolist() == [True, False]
+    assert st["off_mat"] == pytest.approx(1 - np.array([p.sum() for p in imgs]) * MAT.taxel_area_m2 * 133.322
+                                          / (70.0 * 9.81), rel=1e-3)
