@@ -57,6 +57,22 @@ def load_real(data: Path, dst) -> dict:
             "detail": r.detail, "posture": r.posture, "supine": np.isin(r.detail, SUPINE_STRAIGHT)}
 
 
+def real_contact_areas(data: Path, dst) -> dict:
+    """Median area (m^2) of the real supine images' non-zero taxels at each step of the real-data path:
+    as recorded (FSA grid), after baseline removal and taxel repair, and as model input (``dst``)."""
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.data.realprep import prepare, remove_baseline, repair_taxels
+
+    real = read_real(data)
+    r = real.select(np.isin(real.detail, SUPINE_STRAIGHT))
+    raw = r.images.astype(np.float64)
+    area = lambda x, mat: float(np.median((x > 0).sum((1, 2)))) * mat.taxel_area_m2  # noqa: E731
+    x = prepare(r.images, r.mat, r.units, dst, weight_kg=r.weight_kg, gain=r.gain)
+    return {"recorded": area(raw, r.mat), "baseline_repaired": area(repair_taxels(remove_baseline(raw)), r.mat),
+            "model_input": area(x, dst), "fsa_mat": r.mat.rows * r.mat.cols * r.mat.taxel_area_m2,
+            "model_mat": dst.rows * dst.cols * dst.taxel_area_m2}
+
+
 def make_sim(out: Path, count: int) -> Path:
     """general_supine, ``count`` per gender (seeds 931 / 932) under out; returns the root."""
     from pressurepose.cli import main as cli
@@ -508,6 +524,7 @@ def main(argv=None) -> int:
         "sim_pose_shortening_cm": 100 * float(np.median(standing - lying)),
         "sim_height_minus_extent_cm": float(np.median(sim_stats["height_minus_extent_cm"])),
         "real_height_minus_extent_cm": float(np.median(real_stats["height_minus_extent_cm"])),
+        "sim_last_contact_minus_ankle_row": float(np.median(sim_stats["last_row"] - true_ankle)),
         "sim_last_row_63_share": float(np.mean(sim_stats["last_row"] >= 63)),
         "real_last_row_63_share": float(np.mean(real_stats["last_row"] >= 63)),
         "sim_first_row_0_share": float(np.mean(sim_stats["first_row"] <= 0)),
@@ -523,13 +540,17 @@ def main(argv=None) -> int:
         "sim_est_ankle_row_minus_last_contact": float(np.median(est0["ankle_row"] - sim_stats["last_row"])),
         "real_est_ankle_row_minus_last_contact": float(np.median(est_real["ankle_row"] - r2(real_stats["last_row"]))),
     }
-    print(placement)
+    areas = real_contact_areas(Path(args.data), model_mat)
+    a_taxel = model_mat.taxel_area_m2
+    areas["simulated"] = float(np.median(sim_stats["contact_any"])) * a_taxel
+    areas["simulated_round_trip"] = float(np.median(groups["simulated, round trip"]["contact_any"])) * a_taxel
+    print(placement, areas)
     p = placement
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "sim_to_real.json", {
         "table": [{"data": d, "perturbation": n, **s} for d, n, s in table],
         "image_stats_median": {k: {s: float(np.median(v)) for s, v in st.items()} for k, st in groups.items()},
-        "placement": placement, "n_sim": len(sim["x"]), "n_real_supine": int(sup.sum())})
+        "placement": placement, "contact_area_m2": areas, "n_sim": len(sim["x"]), "n_real_supine": int(sup.sum())})
 
     # figures: two real supine images (tallest and shortest subject) beside two simulated bodies
     ir = [int(np.argmax(rh)), int(np.argmin(rh))]
@@ -569,12 +590,19 @@ def main(argv=None) -> int:
         "",
         _stats_table(groups),
         "",
+        f"Where the real contact channel comes from (median area of non-zero taxels, real supine): as recorded on the "
+        f"FSA mat {areas['recorded']:.2f} m^2 (of {areas['fsa_mat']:.2f}), after baseline removal and taxel repair "
+        f"{areas['baseline_repaired']:.2f} m^2, as model input {areas['model_input']:.2f} m^2 (of "
+        f"{areas['model_mat']:.2f}); simulated {areas['simulated']:.2f} m^2, after the round trip "
+        f"{areas['simulated_round_trip']:.2f} m^2.",
+        "",
         "Placement and length along the bed (rows; 0 = head end, 63 = last):",
         "",
         f"- simulated: true pelvis row median {p['sim_true_pelvis_row'][0]:.1f} (range "
         f"{p['sim_true_pelvis_row'][1]:.1f}-{p['sim_true_pelvis_row'][2]:.1f}), the estimate's pelvis off by "
         f"{p['sim_est_pelvis_row_err']:+.1f} rows; lower ankle median {p['sim_true_ankle_row'][0]:.1f}; the head joint "
-        f"{p['sim_true_head_row_minus_first_contact']:+.1f} rows below the first contact row (median);",
+        f"{p['sim_true_head_row_minus_first_contact']:+.1f} rows below the first contact row, the last contact row "
+        f"{p['sim_last_contact_minus_ankle_row']:+.1f} rows from the lower ankle (medians);",
         f"- contact reaching row 63: {100 * p['sim_last_row_63_share']:.0f} % of simulated, "
         f"{100 * p['real_last_row_63_share']:.0f} % of real supine images; reaching row 0: "
         f"{100 * p['sim_first_row_0_share']:.0f} % / {100 * p['real_first_row_0_share']:.0f} %;",
