@@ -552,9 +552,10 @@ def main(argv=None) -> int:
         "image_stats_median": {k: {s: float(np.median(v)) for s, v in st.items()} for k, st in groups.items()},
         "placement": placement, "contact_area_m2": areas, "n_sim": len(sim["x"]), "n_real_supine": int(sup.sum())})
 
-    # figures: two real supine images (tallest and shortest subject) beside two simulated bodies
+    # figures: two real supine images (tallest and shortest subject) above the simulated bodies
+    # closest to them in height
     ir = [int(np.argmax(rh)), int(np.argmin(rh))]
-    js = [int(np.argmax(sim["height"])), int(np.argmin(sim["height"]))]
+    js = [int(np.argmin(np.abs(sim["height"] - rh[i]))) for i in ir]
     b_real = est_real["beta0"][:len(rx)]
     examples = [(f"real, {rh[i]:.2f} m, {rw[i]:.0f} kg", rx[i], f"{(rx[i] > 0).sum()} taxels; beta0 {b_real[i]:+.2f}")
                 for i in ir]
