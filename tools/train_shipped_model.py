@@ -1,31 +1,72 @@
-"""Rebuild the PressureNet that ships in ``pressurepose/net/assets/`` (CPU-sized recipe).
+"""Rebuild the PressureNet that ships in ``pressurepose/net/assets/`` from the paper's partition mix.
 
-Generates physics data with the data engine, trains Mod1 then Mod2, evaluates on a held-out test
-set against the mean-pose baseline, and copies the model into the package::
+Generates physics data with the data engine from the paper's recipe (``--recipe paper``: general with
+every roll, general supine, hands behind head, prone hands up, crossed legs, straight limbs; both
+genders; with and without limbs on the bed) with the simulator's default physics and domain
+randomisation (``generate --randomize``), trains Mod1 then Mod2, and evaluates on a held-out test set
+(the recipe's test entries, drawn with a seed no other run of the project uses) against the
+mean-pose baseline::
 
-    .venv/bin/python tools/train_shipped_model.py --work runs/shipped            # everything
-    .venv/bin/python tools/train_shipped_model.py --work runs/shipped --skip-generate
+    python tools/train_shipped_model.py --work runs/shipped                  # data, training, evaluation
+    python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
+    python tools/train_shipped_model.py --work runs/pilot --scale 0.1        # a small pilot
 
-Every step is a ``pressurepose`` CLI call, so each one resumes if interrupted: rerun the same
-command. The defaults are sized for a 2-core laptop-class CPU: about 40 minutes of generation and
-35 of training (7,200 + 300 samples); they are far below the paper's 184K samples x 100 epochs x 2 modules, and
-the model is correspondingly weaker (see docs/RESULTS.md for what it achieves). For the paper's
-scale use ``pressurepose generate --recipe paper`` and ``pressurepose train`` with its defaults on
-a GPU.
+Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the same command and it
+keeps the finished shards and the last saved epoch. The model is copied into the package only with
+``--install``.
+
+Budget (defaults; 2-core CPU, about 3 hours). Measured rates (docs/RESULTS.md bench:simulate and
+bench:net): the paper mix generates 1.23 accepted samples per CPU-second, so 2 workers make about
+2.4 per second; training the half-width CNN with bf16 autocast runs Mod1 at 120 and Mod2 at 69 images
+per CPU-second on one thread. So:
+
+- data: 10,000 training + 600 test samples -> about 74 minutes of generation;
+- training: Mod1 30 epochs (9,500 images each after the 5 % validation split: about 80 s an epoch,
+  40 minutes) then Mod2 12 epochs (about 140 s an epoch, 28 minutes), cosine rate schedule;
+- evaluation: a few minutes. Total about 2.4 hours at one-thread training rates, leaving room for a
+  busy machine. On a CUDA GPU (``--device auto`` finds one) training takes minutes and the paper CNN
+  (``--cnn paper``, no ``--cpu-amp``) is the better choice.
+
+These are far below the paper's 184K samples x 100 epochs x 2 modules.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 ASSETS = REPO / "pressurepose" / "net" / "assets"
+PAPER_RECIPE = REPO / "pressurepose" / "data" / "recipes" / "paper.json"
 
-# (folder under WORK/data, gender, count, seed): the shipped model's data, all general_supine
-DATA = (("test/f", "f", 150, 902), ("test/m", "m", 150, 903), ("train/f", "f", 3600, 900), ("train/m", "m", 3600, 901))
+TRAIN_SAMPLES = 10_000  # at --scale 1
+TEST_SAMPLES = 600
+# seeds never used elsewhere in the project (the paper recipe uses 1 and 2, the old shipped model 900-905)
+TRAIN_SEED = 1410
+TEST_SEED = 1411
+
+
+def scaled_recipe(paper: dict, train_samples: int, test_samples: int, train_seed: int, test_seed: int) -> dict:
+    """The paper recipe with its train entries scaled to about ``train_samples`` in all and its test
+    entries to about ``test_samples`` (each entry at least 1, the paper's proportions kept), and their
+    seeds replaced. Train entries are ordered smallest first, after the test entries, so an
+    interrupted run already holds the test set and every partition."""
+    entries = [dict(e) for e in paper["entries"]]
+    totals = {s: sum(e["count"] for e in entries if e["split"] == s) for s in ("train", "test")}
+    want = {"train": train_samples, "test": test_samples}
+    seed = {"train": train_seed, "test": test_seed}
+    for e in entries:
+        e["count"] = max(1, round(e["count"] * want[e["split"]] / totals[e["split"]]))
+        e["seed"] = seed[e["split"]]
+    entries.sort(key=lambda e: (e["split"] != "test", e["count"]))
+    return {"format": paper["format"],
+            "description": f"The paper's partition mix scaled to about {train_samples} training (seed "
+                           f"{train_seed}) and {test_samples} test samples (seed {test_seed}); "
+                           "written by tools/train_shipped_model.py.",
+            "entries": entries}
 
 
 def cli(*args: str) -> None:
@@ -37,31 +78,46 @@ def cli(*args: str) -> None:
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")
-    p.add_argument("--partition", default="general_supine")
-    p.add_argument("--scale", type=float, default=1.0, help="multiply the sample counts")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help=f"multiply the sample counts ({TRAIN_SAMPLES} training, {TEST_SAMPLES} test at 1)")
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--epochs-mod1", type=int, default=10)
-    p.add_argument("--epochs-mod2", type=int, default=4)
+    p.add_argument("--shard-size", type=int, default=50)
+    p.add_argument("--epochs-mod1", type=int, default=30)
+    p.add_argument("--epochs-mod2", type=int, default=12)
     p.add_argument("--lr", type=float, default=5e-4, help="Adam lr for Mod1 (paper 2e-5 for 100 epochs)")
     p.add_argument("--lr-mod2", type=float, default=1e-4)
+    p.add_argument("--lr-schedule", choices=("constant", "cosine"), default="cosine")
     p.add_argument("--batch-size", type=int, default=32)
+    p.add_argument("--cnn", choices=("paper", "half", "quarter"), default="half",
+                   help="CNN widths passed to train [half]")
+    p.add_argument("--cpu-amp", action=argparse.BooleanOptionalAction, default=True,
+                   help="bf16 autocast on the CPU [on]")
+    p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
-    p.add_argument("--no-install", action="store_true", help="do not copy the model into the package")
+    p.add_argument("--install", action="store_true",
+                   help="copy the trained model into the package (replaces the shipped model)")
     args = p.parse_args()
+    if not args.scale > 0:
+        p.error(f"--scale {args.scale}: expected a positive number")
 
     work = Path(args.work).resolve()
     data = work / "data"
     if not args.skip_generate:
-        for where, gender, count, seed in DATA:
-            cli("generate", "--partition", args.partition, "--gender", gender, "--count",
-                str(max(1, round(count * args.scale))), "--seed", str(seed), "--shard-size", "50",
-                "--workers", str(args.workers), "--out", str(data / where))
+        from pressurepose.files import write_json_atomic
+
+        recipe = scaled_recipe(json.loads(PAPER_RECIPE.read_text()), round(TRAIN_SAMPLES * args.scale),
+                               max(1, round(TEST_SAMPLES * args.scale)), TRAIN_SEED, TEST_SEED)
+        work.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(work / "recipe.json", recipe)
+        cli("generate", "--recipe", str(work / "recipe.json"), "--randomize", "--shard-size",
+            str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data))
     run = work / "run"
     cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
-        "--batch-size", str(args.batch_size), "--seed", "0")
+        "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
+        *(["--cpu-amp"] if args.cpu_amp else []), "--device", args.device, "--seed", "0")
     cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))
-    if not args.no_install:
+    if args.install:
         install(run)
     return 0
 

@@ -1,0 +1,41 @@
+"""tools/train_shipped_model.py: the scaled recipe it generates from."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+from pressurepose.data.recipes import load_recipe
+
+TOOL = Path(__file__).resolve().parents[1] / "tools" / "train_shipped_model.py"
+
+
+def _tool():
+    spec = importlib.util.spec_from_file_location("train_shipped_model", TOOL)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_scaled_recipe_keeps_the_paper_mix_with_unseen_seeds(tmp_path):
+    tool = _tool()
+    paper = json.loads(tool.PAPER_RECIPE.read_text())
+    recipe = tool.scaled_recipe(paper, 1000, 150, 77, 78)
+    entries = recipe["entries"]
+    assert {e["name"] for e in entries} == {e["name"] for e in paper["entries"]}
+    train = [e for e in entries if e["split"] == "train"]
+    test = [e for e in entries if e["split"] == "test"]
+    assert abs(sum(e["count"] for e in train) - 1000) <= len(train)
+    assert abs(sum(e["count"] for e in test) - 150) <= len(test)
+    assert {e["seed"] for e in train} == {77} and {e["seed"] for e in test} == {78}
+    # every partition, both genders, with and without limbs on the bed
+    assert {e["partition"] for e in train} == {e["partition"] for e in paper["entries"]}
+    assert {e["gender"] for e in train} == {"f", "m"} and {e["limbs_on_bed"] for e in train} == {True, False}
+    # proportions kept: general is 4x the paper's hands_behind_head entries per gender
+    count = {e["name"]: e["count"] for e in entries}
+    assert count["train/general_f"] > count["train/general_supine_f"] > count["train/supine_crossed_legs_f"]
+    # test entries come first, so an interrupted run holds the whole test set
+    assert [e["split"] for e in entries[:len(test)]] == ["test"] * len(test)
+    # the result is a valid recipe for generate
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(recipe))
+    assert len(load_recipe(path)) == len(entries)
