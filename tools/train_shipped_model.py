@@ -24,7 +24,10 @@ per CPU-second on one thread. So:
 - training: Mod1 30 epochs (9,500 images each after the 5 % validation split: about 80 s an epoch,
   40 minutes) then Mod2 12 epochs (about 140 s an epoch, 28 minutes), cosine rate schedule;
 - evaluation: a few minutes. Total about 2.4 hours at one-thread training rates, leaving room for a
-  busy machine. On a CUDA GPU (``--device auto`` finds one) training takes minutes and the paper CNN
+  busy machine. The pilot (docs/RESULTS.md bench:pilot) measured training with 2 threads on the busy
+  machine at 183 (half) and 444 (quarter) Mod1 images per wall-second, so training fits easily; the
+  generation is the long part, and on a machine shared with other jobs it ran at 1.1 samples per
+  wall-second (then 10,600 samples take about 2.7 hours: use --scale 0.7 or rerun to resume). On a CUDA GPU (``--device auto`` finds one) training takes minutes and the paper CNN
   (``--cnn paper``, no ``--cpu-amp``) is the better choice.
 
 These are far below the paper's 184K samples x 100 epochs x 2 modules.
