@@ -218,6 +218,8 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
     the capsule's trunk joints and lying within one radius of its axis (at least
     ``MIN_CONTACT_LENGTH_M``: MuJoCo needs a cylinder part). Never lengthened; the limb
     capsules keep their length. A body without such vertices (e.g. a coarse toy) keeps every length.
+    Every length is at least ``MIN_CONTACT_LENGTH_M``: for extreme shapes the capsule regressor gives
+    a neck of zero length, which MuJoCo refuses.
     """
     v, J = rest_joints(body.arrays, np.asarray(betas, dtype=np.float64)[None])
     v, J = v[0], J[0]
@@ -231,7 +233,7 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
         if near.any():
             half_width = np.abs(local[near, 2]).max()
             out[k] = min(out[k], max(2.0 * (half_width - caps.radius[k]), MIN_CONTACT_LENGTH_M))
-    return out
+    return np.maximum(out, MIN_CONTACT_LENGTH_M)
 
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,

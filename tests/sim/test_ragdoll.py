@@ -283,3 +283,20 @@ def test_springs_rest_at_the_home_pose(params, solo):
     rd.pose_to_qpos(model, index, params, pose, np.zeros(3), data.qpos)
     mujoco.mj_forward(model, data)
     assert np.abs(data.qfrc_spring[6:]).max() > 0.2 * params.stiffness[CAPSULE_NAMES.index("left_upper_arm")]
+
+
+def test_an_extreme_shape_with_a_zero_length_neck_still_builds():
+    """Betas from U(-3, 3) can give a neck capsule of zero length (the regressor's clamp), which
+    MuJoCo refuses ("size 1 must be positive in geom neck"); its contact geom keeps a minimal cylinder
+    and the ragdoll compiles."""
+    body = BodyModel("male")
+    betas = np.array([2.56, 2.81, -2.91, 2.18, 2.89, 2.74, -2.11, 2.84, 2.34, 1.93])
+    caps = capsules_for(body, betas)
+    neck = CAPSULE_NAMES.index("neck")
+    assert caps.length[neck] <= 0.0  # the case this guards
+    p = rd.ragdoll_params(body, betas, "male", caps=caps)
+    assert np.all(p.contact_length >= rd.MIN_CONTACT_LENGTH_M)
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    rd.add_ragdoll(spec, p)
+    spec.compile()
