@@ -79,8 +79,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # files are written atomically: finished ones are kept, none is half-written
-        print(f"\ninterrupted: files already written are complete, none is half-written "
-              f"(generate, train and simulate resume when rerun)", file=sys.stderr)
+        print("\ninterrupted: files already written are complete, none is half-written "
+              "(generate, train and simulate resume when rerun)", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into a reader that stopped (`| head`): quiet, as other tools
         import os

@@ -15,6 +15,8 @@ import secrets
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
+
 from pressurepose.errors import BadInput
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
@@ -104,8 +106,6 @@ def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> Non
 
 def save_npz_atomic(path: str | Path, **arrays) -> None:
     """``np.savez_compressed`` atomically, to exactly ``path`` (numpy adds no second ``.npz``)."""
-    import numpy as np
-
     def write(p: Path) -> None:
         with open(p, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -160,8 +160,6 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
 def read_npy(path: str | Path, what: str) -> np.ndarray:
     """A numeric array from a ``.npy`` file; BadInput naming ``what`` for a missing, empty, text,
     truncated or pickled file."""
-    import numpy as np
-
     path = Path(path)
     if not path.is_file():
         raise BadInput(f"{what} file {str(path)!r} does not exist")

@@ -5,16 +5,13 @@ import math
 import numpy as np
 import pytest
 import scipy.optimize
-import scipy.sparse as sp
-import scipy.sparse.linalg as spl
 import trimesh
 from matplotlib.path import Path
 
 from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import DEPTH_EMPTY_M, GRAVITY, PressFailed, get_bed, press
-from pressurepose.sim.foundation import PasternakFoundation, rigid_jacobian, solve_pasternak, solve_winkler
-from pressurepose.sim.press import body_heightfield, mesh_centroid, press_grid
+from pressurepose.sim.press import mesh_centroid, press_grid
 from pressurepose.sim.raster import lower_surface
 
 K_A = 6e4
@@ -160,47 +157,17 @@ def test_flat_strip_on_pasternak_carries_the_shear_ring_of_the_closed_form():
     assert d * (K_A * area + math.sqrt(K_A * g_shear) * perim) == pytest.approx(weight, rel=0.06)
 
 
-def test_pasternak_solution_meets_the_contact_conditions():
+def test_pasternak_solution_meets_the_contact_conditions(pasternak_patch):
     """Check the CG answer against a sparse direct solve of K w = lam on the same patch."""
-    k_a, g_shear, mass = 5e4, 80.0, 12.0
-    bed = get_bed(stiffness_n_m3=k_a, coupling_n_m=g_shear)
-    grid = press_grid(bed)
-    cap = trimesh.creation.capsule(height=0.25, radius=0.07, count=[24, 24])
-    cap.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0.3, 0]))
-    cap.apply_translation([0.35, 0.8, 0.06])
-    hf = body_heightfield(cap.vertices, cap.faces, bed)
-    under = np.isfinite(hf.bottom)
-    jj, ii = np.nonzero(under)
-    j0, i0 = jj.min() - 15, ii.min() - 15
-    shape = (jj.max() + 16 - j0, ii.max() + 16 - i0)
-    xs, ys = grid.centers()
-    jac = rigid_jacobian(xs[ii], ys[jj], hf.com[:2])
-    dx, dy = grid.cell_xy
-    weight = mass * GRAVITY
-    lam0 = solve_winkler(hf.bottom[under], jac, k_a * dx * dy, weight).lam
-    found = PasternakFoundation(shape, grid.cell_xy, k_a, g_shear)
-    flat = (jj - j0) * shape[1] + (ii - i0)
-    sol = solve_pasternak(hf.bottom[under], jac, flat, found, weight, lam0, tol=1e-9)
-
-    def lap(n):
-        main = np.full(n, 2.0)
-        main[[0, -1]] = 1.0
-        return sp.diags([-np.ones(n - 1), main, -np.ones(n - 1)], [-1, 0, 1])
-
-    ny, nx = shape
-    stiff = (k_a * dx * dy * sp.eye(nx * ny) + g_shear * dy / dx * sp.kron(sp.eye(ny), lap(nx))
-             + g_shear * dx / dy * sp.kron(lap(ny), sp.eye(nx))).tocsc()
-    np.testing.assert_allclose(found.stiffness_matrix(flat).toarray(), stiff[flat][:, flat].toarray(), atol=1e-12)
-    lam = np.zeros(nx * ny)
-    lam[flat] = sol.lam
-    w = spl.spsolve(stiff, lam)
-    gap = w[flat] + hf.bottom[under] + jac @ sol.q
-    on = sol.lam > 0
+    c = pasternak_patch(tol=1e-9)
+    np.testing.assert_allclose(c.found.stiffness_matrix(c.flat).toarray(), c.stiff[c.flat][:, c.flat].toarray(),
+                               atol=1e-12)
+    gap, on, sol = c.gap, c.on, c.sol
     assert gap.min() > -1e-8                       # the sheet never rises through the body
     assert np.abs(gap[on]).max() < 1e-8            # it touches wherever it pushes
     assert sol.lam.min() >= 0                      # it only pushes
-    np.testing.assert_allclose(jac.T @ sol.lam, [weight, 0, 0], atol=1e-8 * weight)  # force, 2 moments
-    assert on.sum() < under.sum()                  # the contact set is a real subset
+    np.testing.assert_allclose(c.jac.T @ sol.lam, [c.weight, 0, 0], atol=1e-8 * c.weight)  # force, 2 moments
+    assert on.sum() < c.under.sum()                # the contact set is a real subset
 
 
 def test_centre_of_pressure_lies_under_the_centre_of_mass():

@@ -14,7 +14,7 @@ from pressurepose.sim.sensor import read_sensor
 
 
 def test_draws_lie_in_their_ranges_and_follow_the_generator():
-    bed, r = get_bed(), RandomizationRanges()
+    bed = get_bed()
     draws = np.array([draw_conditions(np.random.default_rng(i), bed).as_array() for i in range(300)])
     k, e, gain, thr, dx, dy, turn = draws.T
     assert np.all((k >= 0.6 * bed.stiffness_n_m3) & (k <= 1.6 * bed.stiffness_n_m3))

@@ -5,14 +5,11 @@ import math
 import numpy as np
 import pytest
 import scipy.optimize
-import scipy.sparse as sp
-import scipy.sparse.linalg as spl
 import trimesh
 
 from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import GRAVITY, get_bed, press
-from pressurepose.sim.foundation import PasternakFoundation, rigid_jacobian, solve_pasternak, solve_winkler
 from pressurepose.sim.press import Heightfield, body_heightfield, press_grid, press_heightfield
 from pressurepose.sim.tissue import TISSUE_MIN_M, Bones, tissue_depth
 
@@ -116,47 +113,16 @@ def test_tissue_spreads_contact_and_lowers_the_peak(coupling):
     assert soft.bed_force.sum() == pytest.approx(rigid.bed_force.sum(), rel=1e-12)
 
 
-def test_pasternak_with_tissue_meets_the_contact_conditions():
+def test_pasternak_with_tissue_meets_the_contact_conditions(pasternak_patch):
     """The CG answer with compliance c: the gap w + b + c lam is >= 0, zero where lam > 0, and the
     load and both moments balance (checked against a sparse direct solve of K w = lam)."""
-    k_a, g_shear, mass = 5e4, 80.0, 12.0
-    bed = get_bed(stiffness_n_m3=k_a, coupling_n_m=g_shear)
-    grid = press_grid(bed)
-    cap = trimesh.creation.capsule(height=0.25, radius=0.07, count=[24, 24])
-    cap.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0.3, 0]))
-    cap.apply_translation([0.35, 0.8, 0.06])
-    hf = body_heightfield(cap.vertices, cap.faces, bed)
-    under = np.isfinite(hf.bottom)
-    jj, ii = np.nonzero(under)
-    j0, i0 = jj.min() - 15, ii.min() - 15
-    shape = (jj.max() + 16 - j0, ii.max() + 16 - i0)
-    xs, ys = grid.centers()
-    jac = rigid_jacobian(xs[ii], ys[jj], hf.com[:2])
-    dx, dy = grid.cell_xy
-    weight = mass * GRAVITY
-    comp = np.random.default_rng(0).uniform(0.0, 3.0, len(jj)) / (k_a * dx * dy)  # up to 3x the bed's
-    lam0 = solve_winkler(hf.bottom[under], jac, 1 / (1 / (k_a * dx * dy) + comp), weight).lam
-    found = PasternakFoundation(shape, grid.cell_xy, k_a, g_shear)
-    flat = (jj - j0) * shape[1] + (ii - i0)
-    sol = solve_pasternak(hf.bottom[under], jac, flat, found, weight, lam0, tol=1e-10, compliance=comp)
-
-    def lap(n):
-        main = np.full(n, 2.0)
-        main[[0, -1]] = 1.0
-        return sp.diags([-np.ones(n - 1), main, -np.ones(n - 1)], [-1, 0, 1])
-
-    ny, nx = shape
-    stiff = (k_a * dx * dy * sp.eye(nx * ny) + g_shear * dy / dx * sp.kron(sp.eye(ny), lap(nx))
-             + g_shear * dx / dy * sp.kron(lap(ny), sp.eye(nx))).tocsc()
-    lam = np.zeros(nx * ny)
-    lam[flat] = sol.lam
-    w = spl.spsolve(stiff, lam)
-    gap = w[flat] + comp * sol.lam + hf.bottom[under] + jac @ sol.q
-    on = sol.lam > 0
+    c = pasternak_patch(lambda n, k_cell: np.random.default_rng(0).uniform(0.0, 3.0, n) / k_cell,  # up to 3x the bed's
+                        tol=1e-10)
+    gap, on, sol = c.gap, c.on, c.sol
     assert gap.min() > -1e-8
     assert np.abs(gap[on]).max() < 1e-8
     assert sol.lam.min() >= 0
-    np.testing.assert_allclose(jac.T @ sol.lam, [weight, 0, 0], atol=1e-8 * weight)
+    np.testing.assert_allclose(c.jac.T @ sol.lam, [c.weight, 0, 0], atol=1e-8 * c.weight)
 
 
 @pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
