@@ -70,6 +70,12 @@ REFUSED = [
      "--limit"),
     ("train-limit-negative", lambda w: ["train", "--data", w.data, "--out", w.root / "run_neg", "--limit", -14,
                                         "--female", "toy", "--male", "toy"], "--limit"),
+    ("train-contact-floor-negative", lambda w: ["train", "--data", w.data, "--out", w.root / "run_floor",
+                                                "--contact-floor", -1, "--female", "toy", "--male", "toy"],
+     "contact_floor_mmhg"),
+    ("generate-across-sd-negative", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
+                                               "--producer", "synthetic", "--across-sd", -0.1,
+                                               "--out", w.root / "gen_sd"], "across_sd_m"),
     # datasets mixing
     ("generate-recipe-into-dataset", lambda w: ["generate", "--recipe", "paper", "--scale", 0.0001, "--producer",
                                                 "synthetic", "--out", w.data], "single dataset"),

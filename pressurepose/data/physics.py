@@ -27,7 +27,8 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
     from pressurepose.sim.simulate import simulate_one
 
     body, bed = _setup(config.gender, config.mat)
-    sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs)
+    sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
+                            across_sd_m=config.across_sd_m)
     conditions = None
     if config.randomize:
         from pressurepose.sim.randomize import draw_conditions

@@ -41,6 +41,11 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cnn", choices=tuple(CNN_VARIANTS), default=d.cnn,
                    help="CNN widths: paper (default) or a lighter variant for CPU training (half ~3x, quarter ~8x "
                         "faster; not shown to be as accurate as the paper's)")
+    p.add_argument("--contact-floor", type=float, default=5.0, metavar="MMHG",
+                   help="sensor floor: readings at or below it are dropped from the input and the contact channel, "
+                        "in training and in every later use of the model [5: above 99 %% of the faint readings a "
+                        "real mat shows away from the body; 0 is the paper's p > 0, which reads a real mat's "
+                        "background as body (docs/sim_to_real.md)]")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
@@ -64,7 +69,7 @@ def run_train(args) -> int:
                          use_pmr=not args.no_pmr, edges_contact=not args.no_edges_contact,
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
-                         cnn=args.cnn, cpu_amp=args.cpu_amp)
+                         cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
     tensors = {k: v for k, v in data.tensors.items() if k != "partition"}

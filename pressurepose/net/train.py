@@ -50,7 +50,7 @@ from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import MatGrid, PMRConfig, pmr
-from pressurepose.net.transforms import InputConfig
+from pressurepose.net.transforms import InputConfig, apply_floor
 
 LR_SCHEDULES = ("constant", "cosine")
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
@@ -72,7 +72,9 @@ class TrainConfig:
     cnn: the CNN's widths, a name in :data:`pressurepose.net.cnn.CNN_VARIANTS` ("paper", the
     default, or a lighter variant for CPU training, not shown to be as accurate). cpu_amp: run the
     CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
-    layer, PMR and losses stay float32), like ``amp`` on CUDA.
+    layer, PMR and losses stay float32), like ``amp`` on CUDA. contact_floor_mmhg: the input's
+    sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
+    as contact); the model keeps it, so inference applies the same floor.
     """
 
     epochs_mod1: int = 100
@@ -99,6 +101,7 @@ class TrainConfig:
     save_every: int = 1
     cnn: str = "paper"
     cpu_amp: bool = False
+    contact_floor_mmhg: float = 0.0
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
@@ -116,6 +119,8 @@ class TrainConfig:
             raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
         if not 0 <= self.seed < 2 ** 63:  # torch's generators take 64-bit seeds
             raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
+        if not 0 <= self.contact_floor_mmhg < float("inf"):
+            raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
         if self.cnn not in CNN_VARIANTS:
             raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
 
@@ -172,8 +177,11 @@ def _with_defaults(stored: dict | None) -> dict | None:
     stored = json.loads(json.dumps(stored))
     if isinstance(stored.get("train"), dict):
         stored["train"].setdefault("cnn", "paper")
+        stored["train"].setdefault("contact_floor_mmhg", 0.0)
     if isinstance(stored.get("net"), dict):
         stored["net"].setdefault("cnn_channels", list(CNN_VARIANTS["paper"]))
+        if isinstance(stored["net"].get("inputs"), dict):
+            stored["net"]["inputs"].setdefault("contact_floor_mmhg", 0.0)
     return stored
 
 
@@ -236,7 +244,8 @@ def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> 
     outputs = OutputConfig.default(t.mean(0).tolist(), rng.tolist(), gain=config.gain)
     return NetConfig(grid=grid, outputs=outputs,
                      inputs=InputConfig(upsample=config.upsample, blur_sigma=config.blur_sigma,
-                                        edges_contact=config.edges_contact),
+                                        edges_contact=config.edges_contact,
+                                        contact_floor_mmhg=config.contact_floor_mmhg),
                      pmr=PMRConfig(), use_pmr=config.use_pmr, gender_input=config.gender_input,
                      dropout=config.dropout, cnn_channels=CNN_VARIANTS[config.cnn])
 
@@ -320,7 +329,8 @@ def stage_lr(config: TrainConfig, stage: int, epoch: int = 0, epochs: int = 1) -
 
 def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: TrainConfig, maps: bool):
     if noise_gen is not None:
-        noisy, mask, sigma = add_noise(pressure, noise_gen, config.noise_config)
+        clean = apply_floor(pressure, net.config.inputs.contact_floor_mmhg)
+        noisy, mask, sigma = add_noise(clean, noise_gen, config.noise_config)
         x1 = net.inputs(noisy, contact=mask, blur_sigma=sigma)
     else:
         x1 = net.inputs(pressure)

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import torch
 import torch.nn.functional as F
 
+from pressurepose.errors import BadInput
+
 
 @dataclass(frozen=True)
 class InputConfig:
@@ -25,11 +27,23 @@ class InputConfig:
     upsample: integer zoom factor (2 for the 64 x 27 mat as in the paper; 1 for dense mats).
     blur_sigma: Gaussian blur in taxels applied to every pressure image (paper: 0.5).
     edges_contact: include the Sobel edge and contact channels (False ablates them, paper Table 2).
+    contact_floor_mmhg: readings at or below this pressure are dropped before the channels are made,
+        so contact C_I means "reads more than the floor" (0: any non-zero reading, the paper's). Real
+        mats read faint values over most of their area (PMD experiment I: 66 % of the taxels away
+        from the body are non-zero; 99 % of them read under 5 mmHg); simulated ones read exactly 0
+        off the body. A network that learned C_I = (p > 0) from simulation reads a real image's faint
+        background as body area (docs/sim_to_real.md), so a floor applied to both makes the channel
+        mean the same for simulated and real input.
     """
 
     upsample: int = 2
     blur_sigma: float = 0.5
     edges_contact: bool = True
+    contact_floor_mmhg: float = 0.0
+
+    def __post_init__(self):
+        if not 0.0 <= self.contact_floor_mmhg < float("inf"):
+            raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg!r}; expected a pressure >= 0 (mmHg)")
 
     def num_channels(self, extra: int = 0) -> int:
         """Input channels: P (+ E, C_I) (+ ``extra`` PMR maps for Mod2)."""
@@ -118,6 +132,13 @@ def sobel_magnitude(images: torch.Tensor) -> torch.Tensor:
     return torch.hypot(g[:, 0], g[:, 1]).reshape(*lead, h, w)
 
 
+def apply_floor(pressure: torch.Tensor, floor: float) -> torch.Tensor:
+    """Pressure images (..., H, W) with the readings at or below ``floor`` (mmHg) set to 0."""
+    if floor <= 0:
+        return pressure
+    return torch.where(pressure > floor, pressure, torch.zeros_like(pressure))
+
+
 def contact_map(pressure: torch.Tensor) -> torch.Tensor:
     """Binary contact map C_I (same shape, same dtype): 1 where the pressure is non-zero."""
     return (pressure > 0).to(pressure.dtype)
@@ -156,11 +177,14 @@ def input_channels(pressure: torch.Tensor, config: InputConfig = InputConfig(), 
     blurred pressure P, its Sobel edges E and the contact map C_I (K = 3; K = 1 without edges and
     contact), through :func:`map_channels`. Mod2 appends ``map_channels`` of its PMR maps.
 
-    contact: the binary contact map (B, R, C); default: the non-zero taxels of ``pressure`` (the
-        noise model passes the clean image's mask). blur_sigma: default ``config.blur_sigma``; a
-        (B,) tensor blurs each image with its own sigma.
+    contact: the binary contact map (B, R, C); default: the taxels of ``pressure`` above
+        ``config.contact_floor_mmhg`` (the readings at or below it are dropped first). The noise
+        model passes the clean, floored image's mask, and then ``pressure`` is used as given (the
+        training path floors the clean image before adding noise: :func:`apply_floor`).
+        blur_sigma: default ``config.blur_sigma``; a (B,) tensor blurs each image with its own sigma.
     """
     if contact is None:
+        pressure = apply_floor(pressure, config.contact_floor_mmhg)
         contact = contact_map(pressure)
     p = gaussian_blur(pressure, config.blur_sigma if blur_sigma is None else blur_sigma)
     chans = [p, sobel_magnitude(p), contact.to(p.dtype)] if config.edges_contact else [p]

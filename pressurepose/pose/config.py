@@ -73,7 +73,7 @@ class SamplerConfig:
     beta_sd: float = 1.0
     placement: str = "centred"
     yaw_sd: float = 0.1
-    across_sd_m: float = 0.03
+    across_sd_m: float = 0.07
     head_gap_m: float = 0.1
     along_sd_m: float = 0.03
     hanging_limbs: bool = False

@@ -106,3 +106,25 @@ def test_options_train_deterministically(tmp_path):
     for (k, va), (_, vb) in zip(load_model(a.model_path)[0].state_dict().items(),
                                 load_model(b.model_path)[0].state_dict().items()):
         assert torch.equal(va, vb), k
+
+
+def test_the_contact_floor_applies_in_training_and_is_kept_by_the_model(tmp_path):
+    """Faint readings at or below the floor change neither a training step's (noisy) forward pass
+    nor a saved model's estimate: training and inference see the same input."""
+    data = as_training_data(toy_dataset(4, seed=9, grid=GRID), GRID)
+    body = toy_body()
+    cfg = TrainConfig(dropout=0.0, contact_floor_mmhg=5.0)
+    torch.manual_seed(0)
+    net = PressureNet(net_config_for(cfg, GRID, data["transl"]), gendered_body(body, body)).eval()
+    p = torch.where(data["pressure"] > 5.0, data["pressure"], torch.zeros_like(data["pressure"]))
+    faint = p + (p == 0) * 4.9
+    outs = [_forward(net, 1, x, data["gender"], torch.Generator().manual_seed(3), cfg, maps=False).joints
+            for x in (p, faint)]
+    torch.testing.assert_close(outs[0], outs[1], rtol=0, atol=0)
+    loaded, _ = load_model(save_model(tmp_path / "m.pt", net, (body, body)))
+    assert loaded.config.inputs.contact_floor_mmhg == 5.0
+    with torch.no_grad():
+        torch.testing.assert_close(loaded(faint, data["gender"])[1].joints, loaded(p, data["gender"])[1].joints,
+                                   rtol=0, atol=0)
+    with pytest.raises(BadInput, match="contact_floor_mmhg"):
+        TrainConfig(contact_floor_mmhg=-2.0)

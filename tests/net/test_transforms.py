@@ -3,7 +3,8 @@ import pytest
 import torch
 from scipy import ndimage
 
-from pressurepose.net.transforms import (InputConfig, contact_map, gaussian_blur, input_channels,
+from pressurepose.errors import BadInput
+from pressurepose.net.transforms import (InputConfig, apply_floor, contact_map, gaussian_blur, input_channels,
                                          normalise_per_image, sobel_magnitude, upsample)
 
 torch.set_num_threads(1)
@@ -86,3 +87,25 @@ def test_input_channels_shapes_and_normalisation():
     mask = contact_map(x)
     c = input_channels(x, contact=mask)[:, 2]
     assert torch.allclose(c, input_channels(x)[:, 2])
+
+
+def test_contact_floor_drops_faint_readings_from_every_channel():
+    x = _images(2).float()
+    x = torch.where(x > 6.0, x, torch.zeros_like(x))  # a body: every reading above the floor
+    faint = x + (x == 0) * torch.rand(x.shape, generator=torch.Generator().manual_seed(0)) * 5.0
+    floor = InputConfig(contact_floor_mmhg=5.0)
+    # with the floor, a faint background (<= 5 mmHg, as a real mat reads off the body) changes nothing
+    assert torch.equal(input_channels(faint, floor), input_channels(x, floor))
+    # without it (the paper's p > 0) the background becomes contact
+    paper = InputConfig(upsample=1)
+    assert (input_channels(faint, paper)[:, 2] > 0).float().mean() > (input_channels(x, paper)[:, 2] > 0).float().mean() + 0.3
+    # a reading just above the floor stays contact, one at it does not
+    edge = torch.zeros(1, 64, 27)
+    edge[0, 10, 10], edge[0, 20, 20] = 5.0, 5.5
+    c = input_channels(edge, InputConfig(upsample=1, contact_floor_mmhg=5.0))[0, 2]
+    assert c[10, 10] == 0 and c[20, 20] > 0
+    assert torch.equal(apply_floor(edge, 0.0), edge)
+    with pytest.raises(BadInput, match="contact_floor_mmhg"):
+        InputConfig(contact_floor_mmhg=-1.0)
+    with pytest.raises(BadInput, match="contact_floor_mmhg"):
+        InputConfig(contact_floor_mmhg=float("nan"))

@@ -45,7 +45,7 @@ def test_default_placement_centres_the_body_with_the_head_at_the_top(female, cen
     b = centred
     x0, x1, y0, _ = DEFAULT_MATTRESS
     across = b.joints[:, 0, 0] - (x0 + x1) / 2
-    assert abs(across.mean()) < 0.015 and 0.015 < across.std() < 0.05
+    assert abs(across.mean()) < 0.025 and 0.05 < across.std() < 0.09  # SamplerConfig.across_sd_m 0.07
     assert np.abs(b.yaw).max() <= np.pi / 6 and 0.06 < b.yaw.std() < 0.15
     verts, _ = female.forward(b.betas, b.pose, b.transl)
     head = np.asarray(female.arrays.weights).argmax(1) == 15
