@@ -3,9 +3,11 @@
 Generates physics data with the data engine from the paper's recipe (``--recipe paper``: general with
 every roll, general supine, hands behind head, prone hands up, crossed legs, straight limbs; both
 genders; with and without limbs on the bed) with the simulator's default physics and domain
-randomisation (``generate --randomize``), trains Mod1 then Mod2, and evaluates on a held-out test set
-(the recipe's test entries, drawn with a seed no other run of the project uses) against the
-mean-pose baseline::
+randomisation (``generate --randomize``), trains Mod1 then Mod2 with the input's 5 mmHg contact floor
+(``train --contact-floor``, so that the model reads real mats' faint background as no contact), and
+evaluates on a held-out test set (the recipe's test entries, drawn with a seed no other run of the
+project uses) against the mean-pose baseline, and on the real PMD experiment I images when they are
+at ``--real``::
 
     python tools/train_shipped_model.py --work runs/shipped                  # data, training, evaluation
     python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
@@ -95,7 +97,11 @@ def main() -> int:
                    help="CNN widths passed to train [half]")
     p.add_argument("--cpu-amp", action=argparse.BooleanOptionalAction, default=True,
                    help="bf16 autocast on the CPU [on]")
+    p.add_argument("--contact-floor", type=float, default=5.0, help="input contact floor, mmHg [5]")
     p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
+    p.add_argument("--real", default=str(REPO.parent / "shared" / "data" / "pmd-experiment-i"),
+                   help="real images to evaluate on after training, if the folder exists "
+                        "[../shared/data/pmd-experiment-i]; never used for training")
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
@@ -118,8 +124,11 @@ def main() -> int:
     cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
-        *(["--cpu-amp"] if args.cpu_amp else []), "--device", args.device, "--seed", "0")
+        *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
+        "--device", args.device, "--seed", "0")
     cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))
+    if Path(args.real).is_dir():
+        cli("evaluate-real", args.real, "--model", str(run), "--out", str(work / "real"))
     if args.install:
         install(run)
     return 0

@@ -28,7 +28,7 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
 
     body, bed = _setup(config.gender, config.mat)
     sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
-                            across_sd_m=config.across_sd_m)
+                            across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m)
     conditions = None
     if config.randomize:
         from pressurepose.sim.randomize import draw_conditions

@@ -140,9 +140,9 @@ def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
 
 # What a config without the sampler and randomisation keys means: the paper's sampler (a manifest
 # written before they existed, or data converted from the paper's release).
-# across_sd_m = 0.03 is the 'centred' spread of the manifests written before the key existed.
+# 0.03 m is the 'centred' spread of the manifests written before the spreads were settings.
 LEGACY_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True,
-                                   "randomize": False, "across_sd_m": 0.03}
+                                   "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03}
 
 
 @dataclass(frozen=True)
@@ -153,10 +153,11 @@ class GenerationConfig:
     count (samples), seed; mat (sensor preset name); shard_size (samples per file); producer (name in
     ``pressurepose.data.producers.PRODUCERS`` or ``"module:function"``); max_attempts (tries per
     sample before the run fails); options (producer-specific settings, str -> str/number/bool).
-    shapes, placement, across_sd_m, hanging_limbs: the pose sampler's body-shape distribution,
-    placement on the bed, its spread across the bed (m, 'centred' only) and hanging-limbs rule
+    shapes, placement, across_sd_m, across_sd_lateral_m, hanging_limbs: the pose sampler's
+    body-shape distribution, placement on the bed, its spread across the bed for supine or prone
+    and for lateral bodies (m, 'centred' only) and hanging-limbs rule
     (:class:`~pressurepose.pose.config.SamplerConfig`; defaults: SMPL's shape population, bodies
-    centred as people lie with a 7 cm spread, no limb over the edge). randomize: draw the
+    centred as people lie, 3 and 8 cm spreads, no limb over the edge). randomize: draw the
     bed's, tissue's and sensor's constants and the mat's placement per sample
     (:mod:`pressurepose.sim.randomize`). A manifest written before these existed read back with
     :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation).
@@ -179,7 +180,8 @@ class GenerationConfig:
     placement: str = "centred"
     hanging_limbs: bool = False
     randomize: bool = False
-    across_sd_m: float = 0.07
+    across_sd_m: float = 0.03
+    across_sd_lateral_m: float = 0.08
 
     def __post_init__(self):
         object.__setattr__(self, "partition", check_partition(self.partition))
@@ -204,10 +206,11 @@ class GenerationConfig:
             raise BadInput(f"shapes = {self.shapes!r}; expected one of {', '.join(SHAPES)}")
         if self.placement not in PLACEMENTS:
             raise BadInput(f"placement = {self.placement!r}; expected one of {', '.join(PLACEMENTS)}")
-        if (not isinstance(self.across_sd_m, (int, float, np.integer, np.floating)) or isinstance(self.across_sd_m, bool)
-                or not 0 <= self.across_sd_m <= 0.5):
-            raise BadInput(f"across_sd_m = {self.across_sd_m!r}; expected a spread in metres from 0 to 0.5")
-        object.__setattr__(self, "across_sd_m", float(self.across_sd_m))
+        for name in ("across_sd_m", "across_sd_lateral_m"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float, np.integer, np.floating)) or isinstance(v, bool) or not 0 <= v <= 0.5:
+                raise BadInput(f"{name} = {v!r}; expected a spread in metres from 0 to 0.5")
+            object.__setattr__(self, name, float(v))
         object.__setattr__(self, "mat", get_mat(self.mat).name)
         if not isinstance(self.producer, str) or not self.producer:
             raise BadInput(f"producer = {self.producer!r}; expected a producer name")
@@ -237,7 +240,7 @@ class GenerationConfig:
         its key."""
         text = f"{self.partition}|{self.gender}|{int(bool(self.limbs_on_bed))}"
         extra = [f"{k}={getattr(self, k)}" for k in LEGACY_SAMPLING if getattr(self, k) != LEGACY_SAMPLING[k]
-                 and not (k == "across_sd_m" and self.placement != "centred")]  # a spread only 'centred' uses
+                 and not (k.startswith("across_sd") and self.placement != "centred")]  # spreads only 'centred' uses
         if extra:
             text += "|" + "|".join(extra)
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")

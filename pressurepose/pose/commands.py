@@ -16,13 +16,15 @@ def add_body_arguments(p: argparse.ArgumentParser) -> None:
                    help="body shapes: betas ~ N(0, 1) within +-3, SMPL's population (normal, default), or "
                         "U(-3, 3), the paper's (uniform: a sixth of the bodies are extremely thin or heavy)")
     p.add_argument("--placement", choices=("centred", "uniform"), default="centred",
-                   help="where bodies lie: centred across the bed (sd --across-sd), crown about 10 cm from the head "
+                   help="where bodies lie: centred across the bed (sd --across-sd), crown about 16 cm from the head "
                         "end, yaw sd 0.1 rad (centred, default), or the paper's uniform +-0.2 m shift and "
                         "+-pi/6 yaw from the mattress centre (uniform)")
-    p.add_argument("--across-sd", type=float, default=0.07, metavar="M",
-                   help="sd of the pelvis across the bed for --placement centred, metres [0.07: the spread of "
-                        "the lateral bodies' load centroid in PhysioNet PMD experiment I; supine ones lie within "
-                        "1.5 cm of their mean]")
+    p.add_argument("--across-sd", type=float, default=0.03, metavar="M",
+                   help="sd of a supine or prone pelvis across the bed for --placement centred, metres [0.03; "
+                        "real supine people's load centroid: 1.5 cm, PhysioNet PMD experiment I]")
+    p.add_argument("--across-sd-lateral", type=float, default=0.08, metavar="M",
+                   help="the same for a body on its side (in between: by the roll's sine and cosine) [0.08; "
+                        "real lateral people's load centroid: 8-9 cm]")
     p.add_argument("--hanging-limbs", action="store_true",
                    help="let limbs start beyond the mattress and rest hanging over its edge (the paper's "
                         "partitions without limbs-on-bed); default: limbs start over the mattress and a body "
@@ -32,7 +34,7 @@ def add_body_arguments(p: argparse.ArgumentParser) -> None:
 def body_settings(args) -> dict:
     """SamplerConfig / GenerationConfig keywords from :func:`add_body_arguments`' options."""
     return {"shapes": args.shapes, "placement": args.placement, "hanging_limbs": bool(args.hanging_limbs),
-            "across_sd_m": args.across_sd}
+            "across_sd_m": args.across_sd, "across_sd_lateral_m": args.across_sd_lateral}
 
 
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:

@@ -33,9 +33,12 @@ class SamplerConfig:
     shapes: 'normal' (default): betas ~ N(0, beta_sd) truncated to +-beta_range (SMPL's population;
     3 % of bodies with a BMI under 17 or over 35); 'uniform' (the paper's): U(-beta_range,
     beta_range) (19 %); see :func:`pressurepose.pose.root.draw_betas`.
-    placement: 'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max, the pelvis N(0,
-    across_sd_m) across the mattress's centre line and the crown head_gap_m +- along_sd_m from its
-    head end, then, once the limbs are drawn, slid toward the foot as far as needed (and the foot
+    placement: 'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max, the pelvis N(0, s)
+    across the mattress's centre line, s = hypot(across_sd_m cos(roll), across_sd_lateral_m
+    sin(roll)) (PhysioNet PMD experiment I: the load centroid of supine people lies within 1.5 cm
+    (sd) of its mean, of people on their side 8-9 cm), and the crown head_gap_m +- along_sd_m from
+    its head end (0.16 m puts simulated heads at the mat's second or third row, where real heads
+    print in PMD-I), then, once the limbs are drawn, slid toward the foot as far as needed (and the foot
     end allows) to keep every joint head_gap_m from the head end (arms above the head); 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the
     paper's table says pi/3) and the pelvis U(-shift_max, shift_max) across and along from the
     mattress's centre (see :func:`pressurepose.pose.root.draw_placement`).
@@ -73,8 +76,9 @@ class SamplerConfig:
     beta_sd: float = 1.0
     placement: str = "centred"
     yaw_sd: float = 0.1
-    across_sd_m: float = 0.07
-    head_gap_m: float = 0.1
+    across_sd_m: float = 0.03
+    across_sd_lateral_m: float = 0.08
+    head_gap_m: float = 0.16
     along_sd_m: float = 0.03
     hanging_limbs: bool = False
     side_margin_m: float = 0.1
@@ -90,16 +94,19 @@ class SamplerConfig:
     max_bin_redraws: int = 8
     cross_patience: int = 20
     collision_patience: int = 20
+    collision_radius_scale: float = 1.2
 
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
-                  "yaw_sd", "across_sd_m", "head_gap_m", "along_sd_m", "side_margin_m"):
+                  "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m", "collision_radius_scale"):
             v = getattr(self, f)
             if f == "max_limb_sink" and v is None:
                 continue
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 none = " or None" if f == "max_limb_sink" else ""
                 raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0{none}")
+        if not self.collision_radius_scale > 0:
+            raise BadInput(f"sampler collision_radius_scale is {self.collision_radius_scale!r}; expected a number > 0")
         if self.shapes not in SHAPES:
             raise BadInput(f"sampler shapes is {self.shapes!r}; expected one of {', '.join(SHAPES)}")
         if self.placement not in PLACEMENTS:

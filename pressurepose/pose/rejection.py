@@ -77,6 +77,7 @@ class Run:
         self.caps = [None] * n
         self.cap_ends = np.zeros((n, 20, 2, 3))  # capsule ends in their joint's rest frame, SMPL axes
         self.cap_radius = np.zeros((n, 20))
+        self.col_radius = np.zeros((n, 20))  # radii in the self-collision tests (SamplerConfig.collision_radius_scale)
         self.roll, self.yaw = np.zeros(n), np.zeros(n)
         self.W, self.M = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
         self.pelvis = np.zeros((n, 3))
@@ -106,9 +107,10 @@ class Run:
         head = CAPSULE_NAMES.index("head")  # the crown: the head capsule's top, SMPL's +y up at rest
         crown = (self.rest[i, CAPSULE_JOINTS[head], 1] + (caps.center[head] @ Q)[1]
                  + 0.5 * caps.length[head] * abs((caps.axis[head] @ Q)[1]) + caps.radius[head] - self.rest[i, 0, 1])
-        self.yaw[i], pelvis_xy = draw_placement(rng, cfg, crown)
+        self.yaw[i], pelvis_xy = draw_placement(rng, cfg, crown, self.roll[i])
         self.caps[i] = caps
         self.cap_radius[i] = caps.radius
+        self.col_radius[i] = caps.radius * cfg.collision_radius_scale
         half = 0.5 * caps.length[:, None, None] * np.array([-1.0, 1.0])[None, :, None]
         self.cap_ends[i] = (caps.center[:, None, :] + half * caps.axis[:, None, :]) @ Q  # z-up -> SMPL axes
         self.W[i] = world_rotation(self.roll[i], self.yaw[i])[0]
@@ -206,7 +208,7 @@ class Run:
             else:
                 ec = self.rest[bodies, CAPSULE_JOINTS[c]][:, None] + self.cap_ends[bodies, c]
             d = segment_distance(ea[:, 0], ea[:, 1], ec[:, 0], ec[:, 1])
-            hit |= d < self.cap_radius[bodies, a] + self.cap_radius[bodies, c]
+            hit |= d < self.col_radius[bodies, a] + self.col_radius[bodies, c]
         return hit
 
     def _sample_limb(self, li: int, idx: np.ndarray) -> np.ndarray:
@@ -320,7 +322,7 @@ class Run:
         for p, i in enumerate(idx):
             caps = self.caps[i]
             ends = capsule_endpoints(caps, pos[p:p + 1], Wj[p:p + 1])[0]
-            if self.collision.collides(ends, caps.radius):
+            if self.collision.collides(ends, self.col_radius[i]):
                 self.counts[i, _COL["self_collision"]] += 1
                 self.collisions[i] += 1
                 if self.collisions[i] > self.cfg.collision_patience:

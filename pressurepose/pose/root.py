@@ -14,6 +14,8 @@ The body model's output for a root axis-angle r is ``W @ rest`` with ``W = Q R(r
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rotation_to_axis_angle
@@ -74,12 +76,14 @@ def draw_betas(rng: np.random.Generator, config, count: int) -> np.ndarray:
     return truncated_normal(rng, config.beta_sd, config.beta_range, count)
 
 
-def draw_placement(rng: np.random.Generator, config, crown_m: float) -> tuple[float, np.ndarray]:
+def draw_placement(rng: np.random.Generator, config, crown_m: float, roll: float = 0.0,
+                   ) -> tuple[float, np.ndarray]:
     """Yaw (rad) and the pelvis's bed-frame (x, y) for a body whose crown lies ``crown_m`` from its
-    pelvis joint along the body's head direction.
+    pelvis joint along the body's head direction and whose root is rolled by ``roll`` (rad, 0
+    supine).
 
-    'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max; the pelvis N(0, across_sd_m) across
-    the mattress's centre line, and along the bed so that the crown lies head_gap_m +- along_sd_m
+    'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max; the pelvis N(0, hypot(across_sd_m
+    cos roll, across_sd_lateral_m sin roll)) across the mattress's centre line, and along the bed so that the crown lies head_gap_m +- along_sd_m
     (normal) from the mattress's head end, as people lie in a bed. 'uniform' (the paper's): yaw ~
     U(-yaw_max, yaw_max), the pelvis U(-shift_max, shift_max) across and along from the mattress's
     centre.
@@ -89,7 +93,8 @@ def draw_placement(rng: np.random.Generator, config, crown_m: float) -> tuple[fl
         yaw = rng.uniform(-config.yaw_max, config.yaw_max)
         return float(yaw), centre + rng.uniform(-config.shift_max, config.shift_max, 2)
     yaw = truncated_normal(rng, config.yaw_sd, config.yaw_max)
-    across = rng.normal(0.0, config.across_sd_m) if config.across_sd_m > 0 else 0.0
+    sd = math.hypot(config.across_sd_m * math.cos(roll), config.across_sd_lateral_m * math.sin(roll))
+    across = rng.normal(0.0, sd) if sd > 0 else 0.0
     gap = rng.normal(config.head_gap_m, config.along_sd_m) if config.along_sd_m > 0 else config.head_gap_m
     head = world_rotation(0.0, yaw)[0, :, 2]  # the body's head direction on the bed
     y = config.mattress[2] + gap - crown_m * head[1]

@@ -163,16 +163,18 @@ def test_sampler_settings_are_in_the_config_and_a_legacy_manifest_reads_as_the_p
     new = GenerationConfig(partition="general", gender="f")
     assert (new.shapes, new.placement, new.hanging_limbs, new.randomize) == ("normal", "centred", False, False)
     legacy = {k: v for k, v in new.to_dict().items()
-              if k not in ("shapes", "placement", "hanging_limbs", "randomize", "across_sd_m")}
+              if k not in ("shapes", "placement", "hanging_limbs", "randomize", "across_sd_m", "across_sd_lateral_m")}
     old = GenerationConfig.from_dict(legacy)
     assert (old.shapes, old.placement, old.hanging_limbs, old.randomize) == ("uniform", "uniform", True, False)
     # a 'centred' manifest from before the spread was a setting was made with 0.03 m
-    assert GenerationConfig.from_dict({**legacy, "placement": "centred"}).across_sd_m == 0.03
-    assert new.across_sd_m == 0.07
+    centred = GenerationConfig.from_dict({**legacy, "placement": "centred"})
+    assert (centred.across_sd_m, centred.across_sd_lateral_m) == (0.03, 0.03)
+    assert (new.across_sd_m, new.across_sd_lateral_m) == (0.03, 0.08)
     # the spread does not touch the paper's uniform placement, nor its seed stream
     paper = dict(shapes="uniform", placement="uniform", hanging_limbs=True)
     assert (GenerationConfig(partition="general", gender="f", **paper).stream_key
-            == GenerationConfig(partition="general", gender="f", across_sd_m=0.03, **paper).stream_key == old.stream_key)
+            == GenerationConfig(partition="general", gender="f", across_sd_lateral_m=0.03, **paper).stream_key
+            == old.stream_key)
     # the legacy config keeps the seed key it always had; every other setting gets its own stream
     assert old.stream_key == int.from_bytes(__import__("hashlib").sha256(b"general|f|0").digest()[:4], "little")
     keys = {old.stream_key, new.stream_key,
