@@ -100,3 +100,21 @@ def test_lateral_bodies_spread_wider_across_the_bed():
         assert abs(x.std() - sd) < 0.05 * sd, (roll, x.std(), sd)
     with pytest.raises(BadInput, match="across_sd_lateral_m"):
         SamplerConfig(across_sd_lateral_m=-0.01)
+
+
+def test_fuller_collision_capsules_reject_more_arms_across_the_chest(female):
+    """collision_radius_scale widens the capsules of the self-collision tests only (issue 15: the
+    public sampler's capsules are fuller than ours): more candidates are rejected for collisions and
+    fewer wrists end over the chest, with the same seed."""
+    from benchmarks.bench_sampler_fidelity import geometry_shares
+
+    runs = {s: sample_bodies("general_supine", "f", 120, 3, body=female, config=paper_sampler(collision_radius_scale=s))
+            for s in (1.0, 1.4)}
+    def collisions(b):
+        return b.rejections["self_collision"] + b.rejections["limb_collision"]
+
+    assert collisions(runs[1.4]) > collisions(runs[1.0])
+    shares = {s: geometry_shares(b.pose, female)["medial_wrists"] for s, b in runs.items()}
+    assert shares[1.4] < shares[1.0], shares
+    with pytest.raises(BadInput, match="collision_radius_scale"):
+        SamplerConfig(collision_radius_scale=0.0)
