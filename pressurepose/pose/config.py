@@ -62,6 +62,9 @@ class SamplerConfig:
     this test, and on ``general_supine`` it biased the limbs (hip flexion -52 deg mean against the
     public sampler's -38, see the sampler's module docstring), so it is off unless asked for.
     clearance: start height of the lowest capsule surface above the mattress.
+    collision_radius_scale: capsule radii in the self-collision tests, as a multiple of the body's
+    capsules (1.2: the public sampler's SMPLify capsules are fuller than ours, see the sampler's
+    module docstring; the physics uses the capsules as they are).
     mattress: (x_min, x_max, y_min, y_max) outline in the bed frame (for limbs_on_bed and the centre).
     candidates_per_round: limb candidates drawn per body in a first round, doubling each further
     round up to 16 times as many (a speed knob; it changes which samples a seed gives).

@@ -74,7 +74,9 @@ behind the hip and 2 cm lateral of it; ours lies level with the hip and 6.4 cm l
 same tests admit other knee angles and hip twists (with SMPL's ankle offsets in the limb tests,
 knee flexion and hip twist come to W1 ~1 deg). The public code's collision capsules (SMPLify's,
 not available here) rejected more arms across the chest than ours do (14% of its wrists lie over
-the chest, 21% of ours; 1.2x capsule radii brings the largest W1, shoulder swing, from 7 to 4.6).
+the chest, 21% of ours with our capsules' own radii); the self-collision tests therefore widen every
+capsule 1.2x (``SamplerConfig.collision_radius_scale``): 19% of wrists over the chest, largest W1,
+shoulder swing, 7.1 -> 4.6 deg, mean 2.43 -> 2.24 (the paper's settings).
 
 Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
 :func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
