@@ -36,8 +36,8 @@ def _shipped_model_sha256() -> str | None:
 def golden():
     g = np.load(GOLDEN)
     if _shipped_model_sha256() != str(g["model_sha256"]):
-        pytest.skip("the shipped model is not the one the golden estimates were recorded with "
-                    "(commit 78e6666, before the speed-ups)")
+        pytest.skip("the shipped model is not the one the golden estimates were recorded with: "
+                    "run tools/record_golden_estimate.py on the commit that ships it")
     return g
 
 
