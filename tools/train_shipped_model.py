@@ -17,20 +17,18 @@ Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
 ``--install``.
 
-Budget (defaults; 2-core CPU, about 3 hours). Measured rates (docs/RESULTS.md bench:simulate and
-bench:net): the paper mix generates 1.23 accepted samples per CPU-second, so 2 workers make about
-2.4 per second; training the half-width CNN with bf16 autocast runs Mod1 at 120 and Mod2 at 69 images
-per CPU-second on one thread. So:
+Budget (defaults, which made the shipped model; 2-core CPU, about 1.5 hours). Measured on the
+session-5 run (docs/RESULTS.md sections generation-run and shipped_model):
 
-- data: 10,000 training + 600 test samples -> about 74 minutes of generation;
-- training: Mod1 30 epochs (9,500 images each after the 5 % validation split: about 80 s an epoch,
-  40 minutes) then Mod2 12 epochs (about 140 s an epoch, 28 minutes), cosine rate schedule;
-- evaluation: a few minutes. Total about 2.4 hours at one-thread training rates, leaving room for a
-  busy machine. The pilot (docs/RESULTS.md bench:pilot) measured training with 2 threads on the busy
-  machine at 183 (half) and 444 (quarter) Mod1 images per wall-second, so training fits easily; the
-  generation is the long part, and on a machine shared with other jobs it ran at 1.1 samples per
-  wall-second (then 10,600 samples take about 2.7 hours: use --scale 0.7 or rerun to resume). On a CUDA GPU (``--device auto`` finds one) training takes minutes and the paper CNN
-  (``--cnn paper``, no ``--cpu-amp``) is the better choice.
+- data: 6,000 training + 360 test samples, 2 workers: 51 minutes (2.1 accepted samples per
+  wall-second, 1.13 per CPU-second of the process tree);
+- training: half-width CNN with bf16 autocast, 2 threads: Mod1 36 epochs (5,700 images each after
+  the 5 % validation split, about 32 s an epoch) then Mod2 12 epochs, cosine rate schedule;
+- evaluation on the held-out set and on the real PMD-I images: a few minutes.
+
+``--scale 1.7`` gives about 10,000 training samples in about 1.5 hours of generation. On a CUDA GPU
+(``--device auto`` finds one) training takes minutes and the paper CNN (``--cnn paper``, no
+``--cpu-amp``) is the better choice.
 
 These are far below the paper's 184K samples x 100 epochs x 2 modules.
 """
@@ -47,8 +45,8 @@ REPO = Path(__file__).resolve().parents[1]
 ASSETS = REPO / "pressurepose" / "net" / "assets"
 PAPER_RECIPE = REPO / "pressurepose" / "data" / "recipes" / "paper.json"
 
-TRAIN_SAMPLES = 10_000  # at --scale 1
-TEST_SAMPLES = 600
+TRAIN_SAMPLES = 6_000  # at --scale 1
+TEST_SAMPLES = 360
 # seeds never used elsewhere in the project (the paper recipe uses 1 and 2, the old shipped model 900-905)
 TRAIN_SEED = 1410
 TEST_SEED = 1411
@@ -87,7 +85,7 @@ def main() -> int:
                    help=f"multiply the sample counts ({TRAIN_SAMPLES} training, {TEST_SAMPLES} test at 1)")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--shard-size", type=int, default=50)
-    p.add_argument("--epochs-mod1", type=int, default=30)
+    p.add_argument("--epochs-mod1", type=int, default=36)
     p.add_argument("--epochs-mod2", type=int, default=12)
     p.add_argument("--lr", type=float, default=5e-4, help="Adam lr for Mod1 (paper 2e-5 for 100 epochs)")
     p.add_argument("--lr-mod2", type=float, default=1e-4)
