@@ -262,8 +262,9 @@ def main(argv=None) -> int:
         f"Training on the CPU, one thread, batch {args.train_batch}, the training loop's steps (noise, input "
         f"transform, forward, loss, backward, Adam); median of {args.train_steps} steps. The paper's CNN in "
         "float32 is the default; the others are options (`train --cnn half|quarter`, `--cpu-amp`) whose "
-        "accuracy against the paper's is not measured yet (no training set this session); each still "
-        "overfits a tiny set (tests/net/test_train_options.py).",
+        "accuracy against the paper's has not been measured side by side; each still overfits a tiny set "
+        "(tests/net/test_train_options.py). The shipped model is the half CNN trained with bf16 autocast "
+        "(section shipped_model), which also makes its inference faster than the paper CNN's.",
         "",
         "| option | Mod1 (L1) images per CPU-s | x default | Mod2 (L2) images per CPU-s | x default | "
         "Mod1 images per wall-s |",

@@ -107,7 +107,7 @@ def main() -> int:
         "## PressureNet on real images: PhysioNet PMD experiment I (`benchmarks/bench_real.py`)",
         "",
         f"{datetime.date.today().isoformat()}, {platform.platform()}, {os.cpu_count()} CPUs; the shipped model "
-        f"(trained on simulated `general_supine` bodies only). Reproduce: `python -m benchmarks.bench_real` or "
+        f"(how it was made: section shipped_model). Reproduce: `python -m benchmarks.bench_real` or "
         f"`pressurepose evaluate-real ../shared/data/pmd-experiment-i --out X` (default options: one image per "
         f"recording, the median of its non-blank frames; raw readings weight-normalised to mmHg; resampled from the "
         f"FSA 64 x 32 mat, pitch {fit['preset_m']:.4f} m, onto the BodiTrak 64 x 27; no sex is recorded, so every "
@@ -146,16 +146,21 @@ def main() -> int:
         lines.append("")
     rows = json.loads((out / "real" / "estimates.json").read_text())["rows"]
     b0 = np.array([r["betas"][0] for r in rows])
+    conf = m.get("confusion", {})
+    lateral_n = sum(sum(conf.get(k, {}).values()) for k in ("left", "right"))
+    lateral_ok = sum(conf.get(k, {}).get(k, 0) for k in ("left", "right"))
+    lateral_as_supine = sum(conf.get(k, {}).get("supine", 0) for k in ("left", "right"))
+    supine_n, supine_ok = sum(conf.get("supine", {}).values()), conf.get("supine", {}).get("supine", 0)
     stat = {g: np.array([r["stature_m"] for r in rows if r["body_model"] == g]) for g in ("f", "m")}
     lines += [
-        f"What it shows: every lateral posture is called supine (the model never saw a body on its side); the "
-        f"estimated bodies are too tall by {100 * m['stature_bias_m']:+.1f} cm on average and their stature does not "
-        f"follow the real heights (correlation {m['stature_r']:.2f}): the first shape coefficient sits at "
-        f"{b0.mean():+.2f} on average (its limit is +-3) and the estimated stature barely varies (female body "
-        f"{stat['f'].min():.2f}-{stat['f'].max():.2f} m, male {stat['m'].min():.2f}-{stat['m'].max():.2f} m against "
-        f"1.69-1.86 m measured). The input's total force is the body's weight (weight normalisation), so the "
-        f"size comes from how the real pressure is spread, not from its total (issue 12 compares real and "
-        f"simulated images).",
+        f"What it shows: lateral postures read as lateral {lateral_ok}/{lateral_n} ({lateral_as_supine} called "
+        f"supine), supine ones as supine {supine_ok}/{supine_n}; the estimated stature is off by "
+        f"{100 * m['stature_bias_m']:+.1f} cm on average and does not follow the real heights (correlation "
+        f"{m['stature_r']:.2f}): the first shape coefficient sits at {b0.mean():+.2f} on average (its limit is +-3) "
+        f"and the estimated stature ranges over female body {stat['f'].min():.2f}-{stat['f'].max():.2f} m, male "
+        f"{stat['m'].min():.2f}-{stat['m'].max():.2f} m against 1.69-1.86 m measured. The input's total force is "
+        f"the body's weight (weight normalisation), so the size comes from how the real pressure is spread, not "
+        f"from its total (docs/sim_to_real.md compares real and simulated images).",
         "",
         "Left and right: the knees (rows 36-49) lie toward higher columns than the hips (rows 20-31) in "
         + ", ".join(f"{k}/{n} '{name}'" for name, (k, n) in sides.items())
