@@ -132,6 +132,9 @@ def run_evaluate_real(args) -> int:
                 f"(bias {100 * s['stature_bias_m']:+.1f} cm, correlation with height "
                 f"{corr}), mass MAE {s['mass_mae_kg']:.1f} kg "
                 f"(bias {s['mass_bias_kg']:+.1f} kg), contact IoU {s['contact_iou']:.2f}")
+    if s.get("without_wedge") and s["without_wedge"]["posture_accuracy"] is not None:
+        headline += (f"\n(without the wedge postures, bodies turned 30-60 degrees and propped: posture accuracy "
+                     f"{s['without_wedge']['posture_accuracy']:.2f} over {s['without_wedge']['n']} estimates)")
     report = (f"# PressureNet on real images\n\nmodel: {args.model or 'shipped'}\n\n{headline}\n\n"
               f"## By posture\n\n{format_real_table(s)}\n\n## By posture label\n\n"
               f"{format_real_table(s, 'per_posture')}\n\n## By body model\n\n{format_real_table(s, 'by_body_model')}"

@@ -117,3 +117,26 @@ def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
     force = res["input"].sum((1, 2)) * MMHG_PA * 0.0286 ** 2
     np.testing.assert_allclose(force, np.array([60, 90]) * 9.80665, rtol=1e-4)
     assert res["summary"]["n_estimates"] == 2 and res["skipped"] == {"inclined_bed": 0, "weak_recording": 0}
+
+
+def test_wedge_postures_are_summarised_apart_as_well():
+    """summarise() keeps every image in its headline and adds the scores without the wedge postures."""
+    from pressurepose.eval.real import format_real_table, is_wedge, summarise
+
+    detail = np.array(["supine", "left side", "left 30 deg (wedge)", "right 60 deg (wedge)"])
+    posture = np.array(["supine", "left", "left", "right"])
+    predicted = np.array(["supine", "left", "supine", "supine"])
+    n = len(detail)
+    rows = {"image": np.arange(n), "subject": np.array(["S1"] * n), "posture": posture, "detail": detail,
+            "source": np.array(["pmd"] * n), "body_model": np.array(["f"] * n), "predicted": predicted,
+            "scored": np.ones(n, bool), "correct": ps.posture_correct(posture, predicted),
+            "stature_m": np.full(n, 1.7), "height_m": np.full(n, 1.75), "stature_err_m": np.full(n, -0.05),
+            "mass_kg": np.full(n, 60.0), "weight_kg": np.full(n, 62.0), "mass_err_kg": np.full(n, -2.0),
+            "contact_iou": np.full(n, 0.5)}
+    assert is_wedge(detail).tolist() == [False, False, True, True]
+    s = summarise(rows)
+    assert s["posture_accuracy"] == 0.5 and s["without_wedge"]["posture_accuracy"] == 1.0
+    assert s["without_wedge"]["n"] == 2
+    assert "all but the wedge postures" in format_real_table(s)
+    no_wedge = summarise({k: v[:2] for k, v in rows.items()})
+    assert no_wedge["without_wedge"] is None and "wedge" not in format_real_table(no_wedge)
