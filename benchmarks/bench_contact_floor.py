@@ -75,7 +75,8 @@ def main() -> int:
         "## The input's contact floor on real images (`benchmarks/bench_contact_floor.py`)",
         "",
         f"{datetime.date.today().isoformat()}, {platform.platform()}. The same simulated training set "
-        f"(`{Path(args.data).name}`{': ' + args.note if args.note else ''}) and run (quarter CNN, bf16, {args.epochs_mod1} + {args.epochs_mod2} epochs, seed 0) "
+        f"(`{Path(args.data).name}`{': ' + args.note if args.note else ''}) and run (quarter CNN, bf16, "
+        f"{args.epochs_mod1} + {args.epochs_mod2} epochs, seed 0) "
         "with each contact floor; `pressurepose evaluate-real` on PMD experiment I "
         f"({n} estimates: each image with both body models). Posture columns: correct / images of that "
         "label (supine, on the left side, on the right side).",

@@ -38,10 +38,11 @@ class SamplerConfig:
     sin(roll)) (PhysioNet PMD experiment I: the load centroid of supine people lies within 1.5 cm
     (sd) of its mean, of people on their side 8-9 cm), and the crown head_gap_m +- along_sd_m from
     its head end (0.16 m puts simulated heads at the mat's second or third row, where real heads
-    print in PMD-I), then, once the limbs are drawn, slid toward the foot as far as needed (and the foot
-    end allows) to keep every joint head_gap_m from the head end (arms above the head); 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the
-    paper's table says pi/3) and the pelvis U(-shift_max, shift_max) across and along from the
-    mattress's centre (see :func:`pressurepose.pose.root.draw_placement`).
+    print in PMD-I), then, once the limbs are drawn, slid toward the foot as far as needed (and
+    the foot end allows) to keep every joint head_gap_m from the head end (arms above the head);
+    'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max) (the public code's pi/6; the paper's table
+    says pi/3) and the pelvis U(-shift_max, shift_max) across and along from the mattress's centre
+    (see :func:`pressurepose.pose.root.draw_placement`).
     hanging_limbs: False (default): every limb starts over the mattress, its joints at least
     side_margin_m from the mattress's sides (the ``limbs_on_bed`` rule applies whatever the
     caller's flag; limbs started at the edge slide over it while settling), and a body resting with
@@ -101,7 +102,8 @@ class SamplerConfig:
 
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
-                  "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m", "collision_radius_scale"):
+                  "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m",
+                  "collision_radius_scale"):
             v = getattr(self, f)
             if f == "max_limb_sink" and v is None:
                 continue

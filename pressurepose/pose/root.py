@@ -83,10 +83,10 @@ def draw_placement(rng: np.random.Generator, config, crown_m: float, roll: float
     supine).
 
     'centred' (default): yaw ~ N(0, yaw_sd) within +-yaw_max; the pelvis N(0, hypot(across_sd_m
-    cos roll, across_sd_lateral_m sin roll)) across the mattress's centre line, and along the bed so that the crown lies head_gap_m +- along_sd_m
-    (normal) from the mattress's head end, as people lie in a bed. 'uniform' (the paper's): yaw ~
-    U(-yaw_max, yaw_max), the pelvis U(-shift_max, shift_max) across and along from the mattress's
-    centre.
+    cos roll, across_sd_lateral_m sin roll)) across the mattress's centre line, and along the bed
+    so that the crown lies head_gap_m +- along_sd_m (normal) from the mattress's head end, as
+    people lie in a bed. 'uniform' (the paper's): yaw ~ U(-yaw_max, yaw_max), the pelvis
+    U(-shift_max, shift_max) across and along from the mattress's centre.
     """
     centre = config.mattress_centre
     if config.placement == "uniform":
