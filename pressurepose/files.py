@@ -28,6 +28,13 @@ def temp_name(path: Path) -> Path:
     return path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
 
 
+def _file_mode() -> int:
+    """The permission bits a plain new file gets here (0o666 less the umask)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _fsync_dir(directory: Path) -> None:
     try:
         fd = os.open(directory, os.O_RDONLY)
@@ -62,6 +69,8 @@ def stage(path: str | Path, write: Callable[[Path], Any]) -> Path:
         write(tmp)
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
+        # some writers (safetensors) create private 0600 files: give it a plain file's mode
+        os.chmod(tmp, _file_mode())
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise write_error(path, exc) from None

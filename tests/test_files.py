@@ -81,3 +81,19 @@ def test_two_phase_write_and_npz_to_the_exact_name(tmp_path):
     with np.load(tmp_path / "arrays.dat") as z:
         assert z["x"].tolist() == [0, 1, 2]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["arrays.dat", "b.bin"]
+
+
+def test_atomic_write_gives_a_plain_file_mode_even_when_the_writer_makes_a_private_file(tmp_path):
+    import os
+
+    def private(p):  # as safetensors' save_file does
+        fd = os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        os.write(fd, b"x")
+        os.close(fd)
+
+    mask = os.umask(0o022)
+    try:
+        atomic_write(tmp_path / "w.bin", private)
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "w.bin").stat().st_mode & 0o777 == 0o644
