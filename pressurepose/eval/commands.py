@@ -82,8 +82,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gain", type=float, default=None,
                    help="mmHg per raw unit from your mat's calibration (default: raw images are weight-normalised, "
                         "their total force set to the person's weight)")
-    p.add_argument("--contact-mmhg", type=float, default=2.0,
-                   help="input taxels above this pressure count as contact for the IoU (default 2 mmHg)")
+    p.add_argument("--contact-mmhg", type=float, default=None,
+                   help="input taxels above this pressure count as contact for the IoU (default: the model's "
+                        "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
     p.add_argument("--device", default="cpu", help="cpu (default), cuda ...")
 
@@ -115,7 +116,7 @@ def run_evaluate_real(args) -> int:
     s = result["summary"]
     metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
                "mat": real.mat.name, "units": real.units, "frames": args.frames, "gender": args.gender,
-               "gain": real.gain, "contact_mmhg": args.contact_mmhg, "n_images": result["n_images"], "skipped": result["skipped"],
+               "gain": real.gain, "contact_mmhg": result["contact_mmhg"], "n_images": result["n_images"], "skipped": result["skipped"],
                **s}
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "metrics.json", metrics)

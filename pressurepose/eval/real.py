@@ -31,20 +31,22 @@ GENDER_CHOICES = ("f", "m", "both")
 @dataclass(frozen=True)
 class RealEvalConfig:
     """gender: body model for images without a recorded gender ('f', 'm' or 'both'); force: use it
-    even where one is recorded. contact_mmhg: input contact threshold. weak_fraction: images whose
+    even where one is recorded. contact_mmhg: input taxels above it are contact for the IoU; None:
+    the model's own contact floor (what its contact channel means), or 2 mmHg for a model without
+    one (the paper's, which counts any reading). weak_fraction: images whose
     raw total is below this fraction of their subject's median are left out. batch_size: images
     per forward pass."""
 
     gender: str = "both"
     force_gender: bool = False
-    contact_mmhg: float = 2.0
+    contact_mmhg: float | None = None
     weak_fraction: float = 0.1
     batch_size: int = 32
 
     def __post_init__(self):
         if self.gender not in GENDER_CHOICES:
             raise BadInput(f"gender {self.gender!r} is not known; expected one of {', '.join(GENDER_CHOICES)}")
-        if not self.contact_mmhg >= 0 or not 0 <= self.weak_fraction < 1:
+        if (self.contact_mmhg is not None and not self.contact_mmhg >= 0) or not 0 <= self.weak_fraction < 1:
             raise BadInput("contact_mmhg must be >= 0 and weak_fraction in [0, 1)")
 
 
@@ -77,6 +79,7 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
         idx += [i] * len(use)
         genders += use
     idx = np.array(idx)
+    contact_mmhg = contact_threshold(net, config)
     est = estimate(x[idx], genders, model=net, batch_size=config.batch_size)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
@@ -86,10 +89,19 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
             "correct": posture_correct(r.posture[idx], pred), "stature_m": h, "height_m": r.height_m[idx],
             "stature_err_m": h - r.height_m[idx], "mass_kg": m, "weight_kg": r.weight_kg[idx],
             "mass_err_kg": m - r.weight_kg[idx],
-            "contact_iou": contact_iou(est.contact > 0.5, x[idx] > config.contact_mmhg)}
+            "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg)}
     return {"rows": rows, "estimate": est, "input": x[idx], "summary": summarise(rows),
             "skipped": {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())},
-            "n_images": int(keep.sum())}
+            "n_images": int(keep.sum()), "contact_mmhg": contact_mmhg}
+
+
+def contact_threshold(net, config: RealEvalConfig) -> float:
+    """The input pressure (mmHg) above which a taxel counts as contact for the IoU (see
+    :class:`RealEvalConfig`)."""
+    if config.contact_mmhg is not None:
+        return float(config.contact_mmhg)
+    floor = float(net.config.inputs.contact_floor_mmhg)
+    return floor if floor > 0 else 2.0
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float | None:
@@ -133,7 +145,13 @@ def is_wedge(details) -> np.ndarray:
     """(N,) bool: source postures recorded on a wedge (PMD postures 4-7: the body turned 30 or 60
     degrees and propped, labelled left or right by the source; at 30 degrees the project's posture
     classes, split at 45 degrees of roll, call such a body supine)."""
-    return np.array(["wedge" in str(d).lower() for d in np.atleast_1d(details)], bool)
+    return detail_has(details, ("wedge",))
+
+
+def detail_has(details, words) -> np.ndarray:
+    """(N,) bool: source posture names (N,) that contain any of ``words`` (case-insensitive)."""
+    words = [str(w).lower() for w in words]
+    return np.array([any(w in str(d).lower() for w in words) for d in np.atleast_1d(details)], bool)
 
 
 def format_real_table(summary: dict, key: str = "per_detail") -> str:

@@ -45,12 +45,11 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
     """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring)."""
     from pressurepose.data.readers.real import read_real
     from pressurepose.data.realprep import prepare
-    from pressurepose.eval.real import weak_images
+    from pressurepose.eval.real import detail_has, weak_images
 
     real = read_real(folder, frames=frames)
     group = R.posture_group(real.posture)
-    wedge = np.array([any(w in str(d).lower() for w in exclude_detail) for d in real.detail], bool)
-    keep = (group != "") & ~wedge & ~weak_images(real, weak_fraction)
+    keep = (group != "") & ~detail_has(real.detail, exclude_detail) & ~weak_images(real, weak_fraction)
     if not keep.any():
         raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label")
     r = real.select(keep)

@@ -140,3 +140,21 @@ def test_wedge_postures_are_summarised_apart_as_well():
     assert "all but the wedge postures" in format_real_table(s)
     no_wedge = summarise({k: v[:2] for k, v in rows.items()})
     assert no_wedge["without_wedge"] is None and "wedge" not in format_real_table(no_wedge)
+
+
+def test_contact_iou_threshold_defaults_to_the_models_contact_floor():
+    """The IoU's input contact means what the model's contact channel means: its floor (5 mmHg for the
+    shipped model), 2 mmHg for a model without one, or the value asked for."""
+    import types
+
+    from pressurepose.errors import BadInput
+    from pressurepose.eval.real import RealEvalConfig, contact_threshold
+
+    def net(floor):
+        return types.SimpleNamespace(config=types.SimpleNamespace(inputs=types.SimpleNamespace(contact_floor_mmhg=floor)))
+
+    assert contact_threshold(net(5.0), RealEvalConfig()) == 5.0
+    assert contact_threshold(net(0.0), RealEvalConfig()) == 2.0
+    assert contact_threshold(net(5.0), RealEvalConfig(contact_mmhg=1.0)) == 1.0
+    with pytest.raises(BadInput):
+        RealEvalConfig(contact_mmhg=-1.0)
