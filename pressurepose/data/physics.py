@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from functools import lru_cache
 
 import numpy as np
@@ -21,14 +23,39 @@ def _setup(gender: str, mat: str):
     return BodyModel(gender), get_bed(mat)
 
 
+def sampler_config(config: GenerationConfig):
+    """The pose sampler's :class:`~pressurepose.pose.config.SamplerConfig` for a dataset's config:
+    its defaults with the settings the config holds."""
+    from pressurepose.pose.config import SamplerConfig
+
+    return SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
+                         across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m)
+
+
+def provenance(config: GenerationConfig) -> dict:
+    """Every setting of the physics a dataset is made with, as JSON-ready values: the sampler's
+    (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``) and, for a
+    randomised dataset, the ranges drawn from (``randomize``). The
+    manifest keeps it, so it says which constants made the data (not only the config's options),
+    and a resume under other constants is refused."""
+    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.settle import SettleConfig
+
+    record = {"sampler": dataclasses.asdict(sampler_config(config)), "settle": dataclasses.asdict(SettleConfig()),
+              "bed": dataclasses.asdict(get_bed(config.mat))}
+    if config.randomize:
+        from pressurepose.sim.randomize import RandomizationRanges
+
+        record["randomize"] = dataclasses.asdict(RandomizationRanges())
+    return json.loads(json.dumps(record))  # tuples as lists: as it reads back
+
+
 def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Sample | Rejected:
     """One attempt at a labelled sample with the full physics; all randomness from ``rng``."""
-    from pressurepose.pose.config import SamplerConfig
     from pressurepose.sim.simulate import simulate_one
 
     body, bed = _setup(config.gender, config.mat)
-    sampler = SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
-                            across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m)
+    sampler = sampler_config(config)
     conditions = None
     if config.randomize:
         from pressurepose.sim.randomize import draw_conditions

@@ -207,14 +207,42 @@ def open_output(out: Path, config: GenerationConfig) -> Manifest:
             raise BadInput(f"{out} was made by pressurepose {manifest.package_version}, this is "
                            f"{__version__}; shards from two versions may differ, so nothing was changed. "
                            f"Use another --out")
+        now = producer_provenance(config)
+        if manifest.provenance and now and manifest.provenance != now:
+            raise BadInput(f"{out} was begun with other physics or sampler constants "
+                           f"({_provenance_difference(manifest.provenance, now)}); its shards and new ones "
+                           f"would differ, so nothing was changed. Use another --out")
         return manifest
     strays = sorted(p.name for p in out.glob("shard-*.h5"))
     if strays:
         raise BadInput(f"{out} has shard files ({', '.join(strays[:3])}...) but no {MANIFEST}; "
                        f"refusing to mix datasets. Use an empty --out")
-    manifest = Manifest.new(config)
+    manifest = Manifest.new(config, producer_provenance(config))
     manifest.save(out)
     return manifest
+
+
+def producer_provenance(config: GenerationConfig) -> dict:
+    """The constants of the built-in physics producer (``pressurepose.data.physics.provenance``);
+    {} for other producers."""
+    if config.producer != "physics":
+        return {}
+    from pressurepose.data.physics import provenance
+
+    return provenance(config)
+
+
+def _provenance_difference(old: dict, new: dict) -> str:
+    """'settle.timestep_s 0.01 -> 0.02, ...': the first few settings that differ."""
+    diffs = []
+    for part in sorted(set(old) | set(new)):
+        a, b = old.get(part, {}), new.get(part, {})
+        if not isinstance(a, dict) or not isinstance(b, dict):
+            if a != b:
+                diffs.append(f"{part} {a!r} -> {b!r}")
+            continue
+        diffs += [f"{part}.{k} {a.get(k)!r} -> {b.get(k)!r}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+    return ", ".join(diffs[:4]) + (", ..." if len(diffs) > 4 else "")
 
 
 def check_shards(out: Path, manifest: Manifest, repair: bool = False) -> list[int]:

@@ -173,6 +173,7 @@ class Manifest:
     shards: dict[int, ShardRecord] = field(default_factory=dict)
     created: str = ""
     complete: bool = False
+    provenance: dict = field(default_factory=dict)
 
     @property
     def samples_done(self) -> int:
@@ -198,6 +199,7 @@ class Manifest:
             "package_version": self.package_version, "created": self.created,
             "config": self.config.to_dict(), "config_digest": self.config.digest,
             "complete": self.complete, "num_shards": self.config.num_shards,
+            **({"provenance": self.provenance} if self.provenance else {}),
             "counts": {"samples": self.samples_done, "target": self.config.count, "attempts": attempts,
                        "rejected": rejected, "rejection_rate": (rejected / attempts) if attempts else 0.0,
                        "rejections": self.rejections},
@@ -211,8 +213,10 @@ class Manifest:
                            (json.dumps(self.to_dict(), indent=1, sort_keys=False) + "\n").encode())
 
     @classmethod
-    def new(cls, config: GenerationConfig) -> "Manifest":
-        return cls(config=config, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+    def new(cls, config: GenerationConfig, provenance: dict | None = None) -> "Manifest":
+        """A manifest for a dataset about to be made; ``provenance``: the producer's constants
+        (:func:`pressurepose.data.physics.provenance`), kept as written."""
+        return cls(config=config, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"), provenance=dict(provenance or {}))
 
     @classmethod
     def load(cls, directory: Path) -> "Manifest":
@@ -238,8 +242,11 @@ class Manifest:
                                         rejections={str(c): int(v) for c, v in rec.get("rejections", {}).items()})
             except (KeyError, TypeError, ValueError) as exc:
                 raise BadInput(f"manifest {path}: bad entry for {name!r} ({exc})") from None
+        prov = raw.get("provenance", {})
+        if not isinstance(prov, dict):
+            raise BadInput(f"manifest {path}: 'provenance' is {type(prov).__name__}; expected an object. {REPAIR_HINT}")
         return cls(config=config, package_version=str(raw.get("package_version", "")), shards=shards,
-                   created=str(raw.get("created", "")), complete=bool(raw.get("complete", False)))
+                   created=str(raw.get("created", "")), complete=bool(raw.get("complete", False)), provenance=prov)
 
 
 def verify_shard(directory: Path, record: ShardRecord) -> str | None:

@@ -45,3 +45,34 @@ def test_one_physics_sample_balances_its_weight():
     # where the mat reads contact the body is below the unloaded bed top, and over its lowest point
     assert s.depth[s.contact].max() < 0
     assert v[0, :, 2].min() == pytest.approx(s.depth.min(), abs=0.02)
+
+
+def test_manifest_records_the_physics_constants_and_a_resume_under_others_is_refused(tmp_path, monkeypatch):
+    """The sampler's constants (crown gap, collision capsules, ...), the settle's and the bed's are
+    in a physics dataset's manifest; reopening it after one of them changed is refused, since its old
+    and new shards would differ."""
+    import dataclasses
+    import json
+
+    import pytest
+
+    from pressurepose.data import physics
+    from pressurepose.data.pipeline import open_output
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import MANIFEST, Manifest
+    from pressurepose.errors import BadInput
+    from pressurepose.pose.config import SamplerConfig
+
+    config = GenerationConfig(partition="general_supine", gender="f", count=2, seed=3)
+    open_output(tmp_path, config)
+    prov = json.loads((tmp_path / MANIFEST).read_text())["provenance"]
+    assert prov["sampler"]["head_gap_m"] == SamplerConfig().head_gap_m
+    assert prov["sampler"]["collision_radius_scale"] == SamplerConfig().collision_radius_scale
+    assert prov["settle"]["timestep_s"] > 0 and prov["bed"]["mat"]["name"] == "boditrak_bt3510"
+    assert Manifest.load(tmp_path).provenance == prov
+    assert open_output(tmp_path, config).provenance == prov  # same constants: resumes
+
+    moved = dataclasses.replace(SamplerConfig(), head_gap_m=0.1)
+    monkeypatch.setattr(physics, "sampler_config", lambda c: moved)
+    with pytest.raises(BadInput, match=r"sampler.head_gap_m 0.16 -> 0.1"):
+        open_output(tmp_path, config)
