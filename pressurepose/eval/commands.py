@@ -60,7 +60,8 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
     p.description = (
         "Run a PressureNet on real pressure images with known posture, height and weight and score it: "
         "posture accuracy (supine / left / right / prone from the estimate's orientation; 'lateral' labels "
-        "match either side), stature error (standing height of the estimated body at zero pose minus the "
+        "match either side; the estimate's roll about its long axis, 0 on the back and +-90 degrees on a side, is "
+        "reported too), stature error (standing height of the estimated body at zero pose minus the "
         "measured height), mass error, and the contact IoU of the reconstructed map (PMR) with the input. "
         "DIR is a PhysioNet PMD experiment folder (I or II, detected) or a labelled folder (images.npy, "
         "labels.csv, mat.json; docs/data.md). Raw readings are weight-normalised to mmHg and resampled "
@@ -124,7 +125,7 @@ def run_evaluate_real(args) -> int:
     betas = result["estimate"].betas
     per_image = [{**{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in rows.items()},
                   "betas": betas[i].tolist()} for i in range(len(rows["image"]))]
-    write_json_atomic(out / "estimates.json", {"units": "metres, kg", "rows": per_image})
+    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": per_image})
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
     corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
     headline = (f"{result['n_images']} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "

@@ -24,6 +24,7 @@ from pressurepose.data.realprep import prepare
 from pressurepose.errors import BadInput
 from pressurepose.eval.posture import body_stature_mass, confusion, contact_iou, posture_correct, posture_of
 from pressurepose.sim.bed import MatSpec
+from pressurepose.sim.posture import roll_angle
 
 GENDER_CHOICES = ("f", "m", "both")
 
@@ -86,7 +87,8 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],
             "source": r.source[idx], "body_model": np.array(genders), "predicted": pred,
             "scored": np.isin(r.posture[idx], ("supine", "left", "right", "lateral", "prone")),
-            "correct": posture_correct(r.posture[idx], pred), "stature_m": h, "height_m": r.height_m[idx],
+            "correct": posture_correct(r.posture[idx], pred), "roll_deg": np.degrees(roll_angle(est.pose)),
+            "stature_m": h, "height_m": r.height_m[idx],
             "stature_err_m": h - r.height_m[idx], "mass_kg": m, "weight_kg": r.weight_kg[idx],
             "mass_err_kg": m - r.weight_kg[idx],
             "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg)}
@@ -116,6 +118,7 @@ def _stats(rows: dict, sel: np.ndarray) -> dict:
     err_h, err_m = rows["stature_err_m"][sel], rows["mass_err_kg"][sel]
     return {"n": int(sel.sum()),
             "posture_accuracy": float(rows["correct"][scored].mean()) if scored.any() else None,
+            "abs_roll_median_deg": float(np.median(np.abs(rows["roll_deg"][sel]))) if sel.any() else None,
             "stature_mae_m": float(np.abs(err_h).mean()), "stature_bias_m": float(err_h.mean()),
             "stature_r": _corr(rows["stature_m"][sel], rows["height_m"][sel]),
             "mass_mae_kg": float(np.abs(err_m).mean()), "mass_bias_kg": float(err_m.mean()),
@@ -159,13 +162,15 @@ def format_real_table(summary: dict, key: str = "per_detail") -> str:
     def f(v, fmt):
         return "-" if v is None else format(v, fmt)
 
-    lines = ["| posture | n | posture acc. | stature MAE (cm) | stature bias (cm) | mass MAE (kg) | contact IoU |",
-             "|---|---|---|---|---|---|---|"]
+    lines = ["| posture | n | posture acc. | estimated roll, median abs. (deg) | stature MAE (cm) | stature bias (cm) | "
+             "mass MAE (kg) | contact IoU |",
+             "|---|---|---|---|---|---|---|---|"]
     groups = list(summary[key].items()) + [("all", {**summary, "n": summary["n_estimates"]})]
     if key == "per_detail" and summary.get("without_wedge"):
         groups.append(("all but the wedge postures", summary["without_wedge"]))
     for name, s in groups:
-        lines.append(f"| {name} | {s['n']} | {f(s['posture_accuracy'], '.2f')} | {100 * s['stature_mae_m']:.1f} | "
+        lines.append(f"| {name} | {s['n']} | {f(s['posture_accuracy'], '.2f')} | {f(s.get('abs_roll_median_deg'), '.0f')} | "
+                     f"{100 * s['stature_mae_m']:.1f} | "
                      f"{100 * s['stature_bias_m']:+.1f} | {s['mass_mae_kg']:.1f} | {s['contact_iou']:.2f} |")
     return "\n".join(lines)
 

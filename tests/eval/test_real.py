@@ -130,13 +130,14 @@ def test_wedge_postures_are_summarised_apart_as_well():
     rows = {"image": np.arange(n), "subject": np.array(["S1"] * n), "posture": posture, "detail": detail,
             "source": np.array(["pmd"] * n), "body_model": np.array(["f"] * n), "predicted": predicted,
             "scored": np.ones(n, bool), "correct": ps.posture_correct(posture, predicted),
-            "stature_m": np.full(n, 1.7), "height_m": np.full(n, 1.75), "stature_err_m": np.full(n, -0.05),
+            "roll_deg": np.array([2.0, 80.0, 20.0, -30.0]), "stature_m": np.full(n, 1.7), "height_m": np.full(n, 1.75), "stature_err_m": np.full(n, -0.05),
             "mass_kg": np.full(n, 60.0), "weight_kg": np.full(n, 62.0), "mass_err_kg": np.full(n, -2.0),
             "contact_iou": np.full(n, 0.5)}
     assert is_wedge(detail).tolist() == [False, False, True, True]
     s = summarise(rows)
     assert s["posture_accuracy"] == 0.5 and s["without_wedge"]["posture_accuracy"] == 1.0
     assert s["without_wedge"]["n"] == 2
+    assert s["abs_roll_median_deg"] == 25.0 and s["without_wedge"]["abs_roll_median_deg"] == 41.0
     assert "all but the wedge postures" in format_real_table(s)
     no_wedge = summarise({k: v[:2] for k, v in rows.items()})
     assert no_wedge["without_wedge"] is None and "wedge" not in format_real_table(no_wedge)
