@@ -60,8 +60,8 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     g = p.add_argument_group("what to make")
     g.add_argument("--partition", help="one of general, general_supine, hands_behind_head, prone_hands_up, "
-                                       "supine_crossed_legs, supine_straight_limbs (aliases: supine, "
-                                       "crossed_legs, straight_limbs)")
+                                       "supine_crossed_legs, supine_straight_limbs (the paper's), general_lateral (either side; "
+                                       "not the paper's) (aliases: supine, crossed_legs, straight_limbs)")
     g.add_argument("--gender", help="f or m")
     g.add_argument("--limbs-on-bed", action="store_true",
                    help="start elbows, wrists, knees and ankles over the mattress (the paper's 'plo')")

@@ -30,7 +30,8 @@ class Partition:
     """One posture partition.
 
     roll: (low, high) of the root roll about the body's long axis, rad (equal ends: fixed);
-    0 is supine, +-pi prone, -pi/2 lying on the right side.
+    0 is supine, +-pi prone, -pi/2 lying on the right side. either_side: the drawn roll's sign is
+    drawn too (even odds), so the partition covers (low, high) and (-high, -low).
     leg_bins, arm_bins: the bins a limb's distal joint may be assigned (drawn uniformly).
     straight_limbs: knees and elbows held at 0.
     hands_behind_head: shoulder limits widened, wrists headward of, medial to and 0-0.4 m below the
@@ -44,6 +45,7 @@ class Partition:
     name: str
     description: str
     roll: tuple[float, float] = (0.0, 0.0)
+    either_side: bool = False
     leg_bins: tuple[int, ...] = tuple(range(LEG_BINS))
     arm_bins: tuple[int, ...] = tuple(range(ARM_BINS))
     straight_limbs: bool = False
@@ -68,6 +70,10 @@ PARTITIONS: dict[str, Partition] = {p.name: p for p in (
     Partition("supine_straight_limbs", "supine; knees and elbows straight; legs in bin 3 (the only one "
               "a straight leg reaches within the height band), arms over 8 bins",
               leg_bins=(3,), straight_limbs=True),
+    # not one of the paper's: in `general` most bodies drawn on their side roll onto their back or
+    # front while settling, so side-lying rests are a small share of the paper's mix
+    Partition("general_lateral", "on either side (roll 60-120 deg each way; not a paper partition); legs "
+              "over 4 bins, arms over 8", roll=(np.pi / 3, 2 * np.pi / 3), either_side=True),
 )}
 # short names used in the issue and the first drafts of the CLI
 ALIASES: dict[str, str] = {"supine": "general_supine", "crossed_legs": "supine_crossed_legs",

@@ -102,6 +102,8 @@ class Run:
         self.betas[i] = draw_betas(rng, cfg, self.betas.shape[1])
         lo, hi = part.roll
         self.roll[i] = rng.uniform(lo, hi) if hi > lo else lo
+        if part.either_side and rng.random() < 0.5:
+            self.roll[i] = -self.roll[i]
         self.rest[i] = self.j_template + self.j_dirs @ self.betas[i]
         caps = capsules_for(self.body, self.betas[i], self.cap_regressors)
         head = CAPSULE_NAMES.index("head")  # the crown: the head capsule's top, SMPL's +y up at rest

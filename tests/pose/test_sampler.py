@@ -265,3 +265,16 @@ def test_bed_referenced_heights_keep_the_distal_joints_near_the_bed(female):
         z = batch.joints[lateral][:, [J("left_ankle"), J("right_ankle"), J("left_wrist"), J("right_wrist")], 2]
         highest[name] = np.mean(z.max(1) - batch.joints[lateral, J("pelvis"), 2])
     assert highest["bed"] < highest["proximal"] - 0.05
+
+
+def test_general_lateral_draws_bodies_on_either_side(female):
+    """general_lateral (not a paper partition): roll 60-120 degrees, left and right both drawn."""
+    from pressurepose.pose.partitions import get_partition
+    from pressurepose.pose.sampler import sample_bodies
+
+    part = get_partition("general_lateral")
+    assert part.either_side and not get_partition("general").either_side
+    b = sample_bodies("general_lateral", "f", 40, 1, body=female)
+    r = np.degrees(np.abs(b.roll))
+    assert np.all((r >= 60) & (r <= 120))
+    assert 8 <= np.sum(b.roll > 0) <= 32  # both sides, about even odds
