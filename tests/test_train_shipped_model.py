@@ -39,3 +39,18 @@ def test_scaled_recipe_keeps_the_paper_mix_with_unseen_seeds(tmp_path):
     path = tmp_path / "r.json"
     path.write_text(json.dumps(recipe))
     assert len(load_recipe(path)) == len(entries)
+
+
+def test_lateral_entries_are_added_to_the_training_split_only(tmp_path):
+    tool = _tool()
+    paper = json.loads(tool.PAPER_RECIPE.read_text())
+    base = tool.scaled_recipe(paper, 1000, 150, 77, 78)
+    assert tool.with_lateral(base, 0) == base
+    recipe = tool.with_lateral(base, 200, seed=79)
+    extra = [e for e in recipe["entries"] if e["partition"] == "general_lateral"]
+    assert len(extra) == 4 and {e["split"] for e in extra} == {"train"} and {e["seed"] for e in extra} == {79}
+    assert sum(e["count"] for e in extra) == 200
+    assert {(e["gender"], e["limbs_on_bed"]) for e in extra} == {("f", False), ("f", True), ("m", False), ("m", True)}
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(recipe))
+    assert len(load_recipe(path)) == len(recipe["entries"])

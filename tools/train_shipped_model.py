@@ -50,6 +50,8 @@ TEST_SAMPLES = 360
 # seeds never used elsewhere in the project (the paper recipe uses 1 and 2, the old shipped model 900-905)
 TRAIN_SEED = 1410
 TEST_SEED = 1411
+LATERAL_SEED = 1412  # the general_lateral training entries
+LATERAL_SAMPLES = 0  # general_lateral training samples added to the paper mix (at --scale 1)
 
 
 def scaled_recipe(paper: dict, train_samples: int, test_samples: int, train_seed: int, test_seed: int) -> dict:
@@ -72,6 +74,20 @@ def scaled_recipe(paper: dict, train_samples: int, test_samples: int, train_seed
             "entries": entries}
 
 
+def with_lateral(recipe: dict, samples: int, seed: int = LATERAL_SEED) -> dict:
+    """``recipe`` plus about ``samples`` training samples of ``general_lateral`` (bodies on either
+    side; not a paper partition), split over both genders, with and without limbs on the bed, drawn
+    with ``seed``; unchanged when ``samples`` is 0."""
+    if samples <= 0:
+        return recipe
+    each = max(1, round(samples / 4))
+    extra = [{"name": f"train/general_lateral_{g}{'_plo' if plo else ''}", "split": "train",
+              "partition": "general_lateral", "gender": g, "limbs_on_bed": plo, "count": each, "seed": seed}
+             for g in ("f", "m") for plo in (False, True)]
+    return {**recipe, "entries": recipe["entries"] + extra,
+            "description": recipe["description"] + f" Plus {4 * each} general_lateral training samples (seed {seed})."}
+
+
 def cli(*args: str) -> None:
     cmd = [sys.executable, "-m", "pressurepose.cli", *args]
     print("+", " ".join(cmd), flush=True)
@@ -83,6 +99,8 @@ def main() -> int:
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")
     p.add_argument("--scale", type=float, default=1.0,
                    help=f"multiply the sample counts ({TRAIN_SAMPLES} training, {TEST_SAMPLES} test at 1)")
+    p.add_argument("--lateral", type=int, default=LATERAL_SAMPLES,
+                   help=f"general_lateral training samples added to the paper mix, at --scale 1 [{LATERAL_SAMPLES}]")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--shard-size", type=int, default=50)
     p.add_argument("--epochs-mod1", type=int, default=36)
@@ -116,6 +134,7 @@ def main() -> int:
 
         recipe = scaled_recipe(json.loads(PAPER_RECIPE.read_text()), round(TRAIN_SAMPLES * args.scale),
                                max(1, round(TEST_SAMPLES * args.scale)), TRAIN_SEED, TEST_SEED)
+        recipe = with_lateral(recipe, round(args.lateral * args.scale))
         work.mkdir(parents=True, exist_ok=True)
         write_json_atomic(work / "recipe.json", recipe)
         cli("generate", "--recipe", str(work / "recipe.json"), "--randomize", "--shard-size",
