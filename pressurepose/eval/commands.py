@@ -169,6 +169,10 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
                    help="also compare real images recorded on a wedge (PMD postures 4-7; left out by default: "
                         "the body is turned 30-60 deg, not lying on its side)")
     p.add_argument("--examples", type=int, default=3, help="example images per set and posture (default 3)")
+    p.add_argument("--match-extent", action="store_true",
+                   help="compare like postures: resample the simulated images of each posture so that how long "
+                        "the body lies (contact extent over stature) follows the real images'; region shares are "
+                        "fractions of that extent, so bent or spread legs otherwise move the bands")
 
 
 def run_realism(args) -> int:
@@ -179,12 +183,18 @@ def run_realism(args) -> int:
     out = check_output_path(args.out, "--out", directory=True)
     sim = load_synthetic(args.synthetic, args.mat)
     real = load_real(args.real, sim.mat, exclude_detail=() if args.keep_wedge else ("wedge",))
-    report = realism_report(real, sim)
+    report = realism_report(real, sim, match=args.match_extent)
     report["headline"] = headline(report)
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "realism.json", report)
     draw_report(real, sim, report, out / "realism.png", examples=args.examples)
     print(format_realism(report["headline"]))
+    for g, d in report["postures"].items():
+        if "match" in d:
+            m = d["match"]
+            print(f"{g}: matched by extent ratio (real median {m['extent_ratio_real']:.2f}, simulated "
+                  f"{m['extent_ratio_sim_before']:.2f} before, {m['extent_ratio_sim']:.2f} after; "
+                  f"{m['distinct_sim_images']} distinct simulated images; coverage {m['coverage']:.2f})")
     print(f"\nwritten to {out}")
     return 0
 

@@ -181,6 +181,47 @@ def body_extent(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None
     return out
 
 
+def extent_ratio(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
+    """(N,) the body's contact extent along the bed (:func:`body_extent`, m) over its stature
+    ``height_m`` (N,) m: about 0.95 for a body lying long, less for bent or drawn-up legs and for
+    legs spread out of the axis's reach; NaN without contact."""
+    ext = body_extent(images, mat, rule, head)
+    h = np.asarray(height_m, dtype=np.float64).reshape(-1)
+    if h.shape != (len(ext),) or not np.all(np.isfinite(h)) or np.any(h <= 0):
+        raise BadInput(f"height_m has shape {h.shape}; expected ({len(ext)},) positive statures in metres")
+    return (ext[:, 1] - ext[:, 0]) * mat.pitch_row_m / h
+
+
+MATCH_BINS = np.arange(0.5, 1.15, 0.05)  # extent ratio bins (open at both ends) for match_by
+
+
+def match_by(sim_values, real_values, seed: int = 0, bins=MATCH_BINS) -> tuple[np.ndarray, float]:
+    """Indices into ``sim_values`` (N,) of a resample whose histogram over ``bins`` (edges; values
+    beyond them fall in the end bins) follows ``real_values``' (M,): each bin gets a share of N
+    draws equal to its share of the real values, drawn with replacement from the simulated values
+    in it (seeded). Returns (indices, coverage): coverage is the share of the real values whose bin
+    holds any simulated value (the rest are not represented). NaNs are left out of both."""
+    s, r = np.asarray(sim_values, float).reshape(-1), np.asarray(real_values, float).reshape(-1)
+    s_ok, r = np.flatnonzero(np.isfinite(s)), r[np.isfinite(r)]
+    if not len(s_ok) or not len(r):
+        raise BadInput("matching needs finite values in both sets")
+    edges = np.asarray(bins, float)
+    sb, rb = np.digitize(s[s_ok], edges), np.digitize(r, edges)
+    rng = np.random.default_rng(seed)
+    want = np.bincount(rb, minlength=len(edges) + 1) / len(r)
+    have = np.bincount(sb, minlength=len(edges) + 1)
+    covered = want * (have > 0)
+    coverage = float(covered.sum())
+    if coverage == 0:
+        raise BadInput("no simulated image falls in a bin that holds a real one; nothing to match")
+    n = len(s_ok)
+    quota = n * covered / coverage  # largest remainders: the counts sum to n
+    counts = np.floor(quota).astype(int)
+    counts[np.argsort(counts - quota)[: n - counts.sum()]] += 1
+    idx = [rng.choice(s_ok[sb == b], size=c, replace=True) for b, c in enumerate(counts) if c > 0]
+    return np.sort(np.concatenate(idx)), coverage
+
+
 def region_shares(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
     """(N, 7) share of each image's load (sum of readings) in each of :data:`REGIONS`; rows sum to 1
     (NaN for an image without contact). A row's load is split between regions by how much of the

@@ -26,8 +26,9 @@ from pressurepose.sim.bed import MATS, MatSpec, get_mat
 
 @dataclass(frozen=True, eq=False)
 class ImageSet:
-    """N pressure images (N, rows, cols) mmHg on ``mat`` with their posture group (N,) str and, for
-    simulated images, taxel forces (N, rows, cols) N and body masses (N,) kg (else None)."""
+    """N pressure images (N, rows, cols) mmHg on ``mat`` with their posture group (N,) str, for
+    simulated images taxel forces (N, rows, cols) N and body masses (N,) kg (else None), and the
+    people's statures (N,) m where known (for :func:`realism_report`'s ``match``)."""
 
     name: str
     pressure: np.ndarray
@@ -35,6 +36,7 @@ class ImageSet:
     mat: MatSpec
     force: np.ndarray | None = None
     mass: np.ndarray | None = None
+    height: np.ndarray | None = None
 
     def stats(self, rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
         return R.image_stats(self.pressure, self.mat, rule, force_n=self.force, mass_kg=self.mass)
@@ -54,7 +56,8 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
         raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label")
     r = real.select(keep)
     x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
-    return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat)
+    return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat,
+                    height=np.asarray(r.height_m, dtype=np.float64))
 
 
 def _mat_for_shape(shape, mat_name: str | None) -> MatSpec:
@@ -83,7 +86,7 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
                 missing = [k for k in need if k not in z.files]
                 if missing:
                     raise BadInput(f"{p} lacks {', '.join(missing)}; expected a `pressurepose simulate` .npz")
-                arr = {k: z[k] for k in need}
+                arr = {k: z[k] for k in need + (("height",) if "height" in z.files else ())}
         except (OSError, ValueError) as exc:
             raise BadInput(f"{p} is not a readable .npz ({exc})") from None
         mat = _mat_for_shape(arr["pressure"].shape[1:], mat_name)
@@ -91,19 +94,28 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
         from pressurepose.data.dataset import DatasetReader
 
         reader = DatasetReader(p)
-        arr = reader.load_arrays(("pressure", "force", "pose", "mass"), image_dtype=np.float32,
+        arr = reader.load_arrays(("pressure", "force", "pose", "mass", "height"), image_dtype=np.float32,
                                  label_dtype=np.float64)
         mat = get_mat(reader.datasets[0].config.mat)
     else:
         raise BadInput(f"synthetic data {str(p)!r} does not exist; expected a dataset directory or a simulate .npz")
     group = R.posture_group(posture_of(np.asarray(arr["pose"], dtype=np.float64)))
     return ImageSet(f"simulated ({p.name})", np.asarray(arr["pressure"], dtype=np.float64), group, mat,
-                    np.asarray(arr["force"], dtype=np.float64), np.asarray(arr["mass"], dtype=np.float64).reshape(-1))
+                    np.asarray(arr["force"], dtype=np.float64), np.asarray(arr["mass"], dtype=np.float64).reshape(-1),
+                    np.asarray(arr["height"], dtype=np.float64).reshape(-1) if "height" in arr else None)
 
 
-def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
+def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT_RULE, match: bool = False,
+                   seed: int = 0) -> dict:
     """{'rule', 'mat', 'postures': {group: {'real': summary, 'simulated': summary, 'distance':
-    compare(...)}}} over the posture groups present in both sets (BadInput when none is)."""
+    compare(...)}}} over the posture groups present in both sets (BadInput when none is).
+
+    ``match``: compare like postures: within each group the simulated images are resampled (seeded)
+    so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
+    long the body lies) follows the real images' (:func:`~.realism.match_by`), and each group also
+    reports ``match`` {'coverage', 'extent_ratio_real', 'extent_ratio_sim_before'}. Region shares are
+    fractions of the extent, so sampled poses with bent or spread legs put the pelvis in the thigh
+    band; matching takes that posture difference out of the comparison of the physics."""
     if real.mat.shape != sim.mat.shape:
         raise BadInput(f"real images are on a {real.mat.shape} mat, simulated ones on {sim.mat.shape}")
     rs, ss = real.stats(rule), sim.stats(rule)
@@ -115,10 +127,32 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
            "mat": {"name": sim.mat.name, "rows": sim.mat.rows, "cols": sim.mat.cols,
                    "pitch_m": [sim.mat.pitch_row_m, sim.mat.pitch_col_m]},
            "real_name": real.name, "simulated_name": sim.name, "postures": {}}
+    if match:
+        if real.height is None or sim.height is None:
+            raise BadInput("matching by extent ratio needs the statures of both sets' people")
+        r_ratio = R.extent_ratio(real.pressure, real.mat, real.height, rule)
+        s_ratio = R.extent_ratio(sim.pressure, sim.mat, sim.height, rule)
+        out["match"] = {"by": "extent_ratio", "bins": [float(b) for b in R.MATCH_BINS], "seed": seed}
     for g in groups:
         r, s = R.select(rs, real.posture == g), R.select(ss, sim.posture == g)
-        out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r)}
+        entry = {}
+        if match:
+            rsel, ssel = np.flatnonzero(real.posture == g), np.flatnonzero(sim.posture == g)
+            pick, coverage = R.match_by(s_ratio[ssel], r_ratio[rsel], seed)
+            entry["match"] = {"coverage": coverage, "extent_ratio_real": _median(r_ratio[rsel]),
+                              "extent_ratio_sim_before": _median(s_ratio[ssel]),
+                              "extent_ratio_sim": _median(s_ratio[ssel][pick]),
+                              "distinct_sim_images": int(len(np.unique(pick)))}
+            s = R.select(ss, ssel[pick])
+        out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
+                              **entry}
     return out
+
+
+def _median(v) -> float | None:
+    v = np.asarray(v, float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if len(v) else None
 
 
 def headline(report: dict) -> list[dict]:

@@ -9,7 +9,7 @@ import pytest
 
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
-from pressurepose.sim.bed import get_mat
+from pressurepose.sim.bed import MatSpec, get_mat
 from tests.data.realfolders import write_labelled
 
 MAT = get_mat("boditrak_bt3510")
@@ -132,6 +132,15 @@ def test_realism_verb_end_to_end(tmp_path):
     assert (out / "realism.png").stat().st_size > 10_000
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "nope.npz"),
                  "--out", str(out)]) == 2
+    # like postures: needs the simulated statures, then reports how the match went
+    args = ["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "sim.npz"), "--out", str(out),
+            "--match-extent"]
+    assert main(args) == 2
+    np.savez(tmp_path / "sim.npz", pressure=sim, force=force, pose=pose, mass=force.sum((1, 2)) / 9.81,
+             height=np.full(3, 1.75))
+    assert main(args) == 0
+    m = json.loads((out / "realism.json").read_text())["postures"]["supine"]["match"]
+    assert m["coverage"] > 0 and m["distinct_sim_images"] >= 1
 
 
 def test_load_synthetic_reads_a_dataset_directory(tmp_path):
@@ -154,3 +163,29 @@ def test_load_synthetic_reads_a_dataset_directory(tmp_path):
     assert st["head_imprint"].tolist() == [True, False]
     assert st["off_mat"] == pytest.approx(1 - np.array([p.sum() for p in imgs]) * MAT.taxel_area_m2 * 133.322
                                           / (70.0 * 9.81), rel=1e-3)
+
+
+def test_match_by_follows_the_real_histogram_and_reports_coverage():
+    """The resample's histogram follows the real one; bins with no simulated value are not covered."""
+    sim = np.concatenate([np.full(80, 0.72), np.full(20, 0.97)])  # mostly short bodies
+    real = np.concatenate([np.full(30, 0.73), np.full(70, 0.96)])  # mostly long ones
+    idx, cov = R.match_by(sim, real, seed=1)
+    assert cov == 1.0 and len(idx) == 100
+    assert np.isclose(np.mean(sim[idx] > 0.9), 0.7, atol=0.02)
+    idx2, _ = R.match_by(sim, real, seed=1)
+    assert np.array_equal(idx, idx2)  # seeded
+    _, cov = R.match_by(sim[:80], real, seed=1)  # no long simulated body: 70 % of the real mass uncovered
+    assert np.isclose(cov, 0.3)
+    with pytest.raises(BadInput):
+        R.match_by(np.array([np.nan]), real)
+
+
+def test_extent_ratio_is_extent_over_stature():
+    mat = MatSpec("m", 64, 27, 0.0286, 0.0286, 100.0)
+    img = np.zeros((1, 64, 27))
+    img[0, 2:62, 10:17] = 20.0  # a body lying long, no head shape: the rule adds a head length
+    ext = R.body_extent(img, mat)
+    ratio = R.extent_ratio(img, mat, [1.75])
+    assert np.isclose(ratio[0], (ext[0, 1] - ext[0, 0]) * 0.0286 / 1.75)
+    with pytest.raises(BadInput):
+        R.extent_ratio(img, mat, [0.0])
