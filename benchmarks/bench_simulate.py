@@ -41,9 +41,11 @@ from benchmarks.user_path import dataset_counts, run_cli
 from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
 
-# (partition, limbs on bed): the paper recipe's partitions; two exist there only with limbs over the bed
+# (partition, limbs on bed): the paper recipe's partitions (two exist there only with limbs over the
+# bed), then the project's side-lying partition (not in the recipe)
 PARTITIONS = (("general", False), ("general_supine", False), ("hands_behind_head", True),
-              ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False))
+              ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False),
+              ("general_lateral", False))
 GENDERS = ("f", "m")
 CAUSES = ("not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision", "press_failed", "limb_off_bed")
 GOAL = 3.0
@@ -61,6 +63,8 @@ def breakdown(config: GenerationConfig) -> dict:
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press
     from pressurepose.sim.settle import settle
+    from pressurepose.sim.simulate import limb_off_bed
+    from pressurepose.sim.tissue import body_bones
 
     body, bed = _setup(config.gender, config.mat)
     rows = []  # (status, steps, sample s, settle s, press s)
@@ -74,12 +78,16 @@ def breakdown(config: GenerationConfig) -> dict:
             rest = settle(body, drawn.betas, drawn.pose, drawn.transl, config.gender, bed=bed)
             t2 = time.process_time()
             status = rest.status
-            if rest.ok:
-                verts, _ = body.forward(rest.betas, rest.pose, rest.transl)
-                try:
-                    press(verts[0], body.faces, rest.mass_kg, bed)
-                except PressFailed:
-                    status = "press_failed"
+            if rest.ok:  # as simulate_one: the hanging-limb rule, then the tissue press
+                verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
+                if limb_off_bed(joints[0], bed):
+                    status = "limb_off_bed"
+                else:
+                    try:
+                        press(verts[0], body.faces, rest.mass_kg, bed,
+                              bones=body_bones(body, rest.betas, rest.pose, rest.transl))
+                    except PressFailed:
+                        status = "press_failed"
             rows.append((status, rest.steps, t1 - t0, t2 - t1, time.process_time() - t2))
             if status == "settled":
                 break
