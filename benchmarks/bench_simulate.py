@@ -58,8 +58,7 @@ def cli_args(partition: str, gender: str, plo: bool, count: int, seed: int, out:
 
 def breakdown(config: GenerationConfig) -> dict:
     """Every attempt of ``config``'s samples, as the physics producer makes them, with its steps and CPU."""
-    from pressurepose.data.physics import _setup
-    from pressurepose.pose.config import SamplerConfig
+    from pressurepose.data.physics import _setup, sampler_config
     from pressurepose.pose.sampler import sample_one
     from pressurepose.sim.press import PressFailed, press
     from pressurepose.sim.settle import settle
@@ -73,7 +72,7 @@ def breakdown(config: GenerationConfig) -> dict:
             rng = attempt_rng(config, i, attempt)
             t0 = time.process_time()
             drawn = sample_one(config.partition, config.gender, rng, config.limbs_on_bed, body=body,
-                               config=SamplerConfig())
+                               config=sampler_config(config))
             t1 = time.process_time()
             rest = settle(body, drawn.betas, drawn.pose, drawn.transl, config.gender, bed=bed)
             t2 = time.process_time()

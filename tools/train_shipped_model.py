@@ -130,6 +130,8 @@ def main() -> int:
     args = p.parse_args()
     if not args.scale > 0:
         p.error(f"--scale {args.scale}: expected a positive number")
+    if args.lateral < 0:
+        p.error(f"--lateral {args.lateral}: expected a number of samples >= 0")
 
     work = Path(args.work).resolve()
     data = work / "data"

@@ -113,7 +113,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
     ``match``: compare like postures: within each group the simulated images are resampled (seeded)
     so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
     long the body lies) follows the real images' (:func:`~.realism.match_by`), and each group also
-    reports ``match`` {'coverage', 'extent_ratio_real', 'extent_ratio_sim_before'}. Region shares are
+    reports ``match`` {'coverage', 'extent_ratio_real', 'extent_ratio_sim_before', 'extent_ratio_sim',
+    'distinct_sim_images'}. Region shares are
     fractions of the extent, so sampled poses with bent or spread legs put the pelvis in the thigh
     band; matching takes that posture difference out of the comparison of the physics."""
     if real.mat.shape != sim.mat.shape:
