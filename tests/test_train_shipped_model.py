@@ -54,3 +54,14 @@ def test_lateral_entries_are_added_to_the_training_split_only(tmp_path):
     path = tmp_path / "r.json"
     path.write_text(json.dumps(recipe))
     assert len(load_recipe(path)) == len(recipe["entries"])
+
+
+def test_propped_entries_are_added_by_default_with_their_own_seed():
+    tool = _tool()
+    paper = json.loads(tool.PAPER_RECIPE.read_text())
+    base = tool.scaled_recipe(paper, 1000, 150, 77, 78)
+    recipe = tool.with_extra(base, "propped_lateral", 120, tool.PROPPED_SEED)
+    extra = [e for e in recipe["entries"] if e["partition"] == "propped_lateral"]
+    assert sum(e["count"] for e in extra) == 120 and {e["seed"] for e in extra} == {tool.PROPPED_SEED}
+    assert len({tool.TRAIN_SEED, tool.TEST_SEED, tool.LATERAL_SEED, tool.PROPPED_SEED}) == 4
+    assert tool.with_extra(base, "propped_lateral", 0, 1) == base

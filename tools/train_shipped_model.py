@@ -56,6 +56,8 @@ TRAIN_SEED = 1410
 TEST_SEED = 1411
 LATERAL_SEED = 1412  # the general_lateral training entries
 LATERAL_SAMPLES = 2_000  # general_lateral training samples added to the paper mix (at --scale 1)
+PROPPED_SEED = 1414  # the propped_lateral training entries (1413: session 6's general_lateral test set)
+PROPPED_SAMPLES = 1_500  # propped_lateral training samples added (at --scale 1)
 
 
 def scaled_recipe(paper: dict, train_samples: int, test_samples: int, train_seed: int, test_seed: int) -> dict:
@@ -78,18 +80,24 @@ def scaled_recipe(paper: dict, train_samples: int, test_samples: int, train_seed
             "entries": entries}
 
 
-def with_lateral(recipe: dict, samples: int, seed: int = LATERAL_SEED) -> dict:
-    """``recipe`` plus about ``samples`` training samples of ``general_lateral`` (bodies on either
-    side; not a paper partition), split over both genders, with and without limbs on the bed, drawn
-    with ``seed``; unchanged when ``samples`` is 0."""
+def with_extra(recipe: dict, partition: str, samples: int, seed: int) -> dict:
+    """``recipe`` plus about ``samples`` training samples of ``partition`` (one not in the paper's
+    mix), split over both genders, with and without limbs on the bed, drawn with ``seed``;
+    unchanged when ``samples`` is 0."""
     if samples <= 0:
         return recipe
     each = max(1, round(samples / 4))
-    extra = [{"name": f"train/general_lateral_{g}{'_plo' if plo else ''}", "split": "train",
-              "partition": "general_lateral", "gender": g, "limbs_on_bed": plo, "count": each, "seed": seed}
+    extra = [{"name": f"train/{partition}_{g}{'_plo' if plo else ''}", "split": "train",
+              "partition": partition, "gender": g, "limbs_on_bed": plo, "count": each, "seed": seed}
              for g in ("f", "m") for plo in (False, True)]
     return {**recipe, "entries": recipe["entries"] + extra,
-            "description": recipe["description"] + f" Plus {4 * each} general_lateral training samples (seed {seed})."}
+            "description": recipe["description"] + f" Plus {4 * each} {partition} training samples (seed {seed})."}
+
+
+def with_lateral(recipe: dict, samples: int, seed: int = LATERAL_SEED) -> dict:
+    """``recipe`` plus about ``samples`` training samples of ``general_lateral`` (bodies on either
+    side; not a paper partition): :func:`with_extra`."""
+    return with_extra(recipe, "general_lateral", samples, seed)
 
 
 def cli(*args: str) -> None:
@@ -105,6 +113,9 @@ def main() -> int:
                    help=f"multiply the sample counts ({TRAIN_SAMPLES} training, {TEST_SAMPLES} test at 1)")
     p.add_argument("--lateral", type=int, default=LATERAL_SAMPLES,
                    help=f"general_lateral training samples added to the paper mix, at --scale 1 [{LATERAL_SAMPLES}]")
+    p.add_argument("--propped", type=int, default=PROPPED_SAMPLES,
+                   help=f"propped_lateral training samples (half turned, a wedge behind the back) added, at "
+                        f"--scale 1 [{PROPPED_SAMPLES}]")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--shard-size", type=int, default=50)
     p.add_argument("--epochs-mod1", type=int, default=36)
@@ -130,8 +141,9 @@ def main() -> int:
     args = p.parse_args()
     if not args.scale > 0:
         p.error(f"--scale {args.scale}: expected a positive number")
-    if args.lateral < 0:
-        p.error(f"--lateral {args.lateral}: expected a number of samples >= 0")
+    for name in ("lateral", "propped"):
+        if getattr(args, name) < 0:
+            p.error(f"--{name} {getattr(args, name)}: expected a number of samples >= 0")
 
     work = Path(args.work).resolve()
     data = work / "data"
@@ -141,6 +153,7 @@ def main() -> int:
         recipe = scaled_recipe(json.loads(PAPER_RECIPE.read_text()), round(TRAIN_SAMPLES * args.scale),
                                max(1, round(TEST_SAMPLES * args.scale)), TRAIN_SEED, TEST_SEED)
         recipe = with_lateral(recipe, round(args.lateral * args.scale))
+        recipe = with_extra(recipe, "propped_lateral", round(args.propped * args.scale), PROPPED_SEED)
         work.mkdir(parents=True, exist_ok=True)
         write_json_atomic(work / "recipe.json", recipe)
         cli("generate", "--recipe", str(work / "recipe.json"), "--randomize", "--shard-size",

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pressurepose.cli import seed_arg
 from pressurepose.errors import BadInput
+from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
 _PRODUCER_HELP = (
     "what makes each sample [physics]. 'physics' is the data engine: pose sampler -> settle "
@@ -59,9 +60,8 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
                 "  pressurepose generate ... --ray auto          # run on the Ray cluster this machine is in")
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     g = p.add_argument_group("what to make")
-    g.add_argument("--partition", help="one of general, general_supine, hands_behind_head, prone_hands_up, "
-                                       "supine_crossed_legs, supine_straight_limbs (the paper's), general_lateral (either side; "
-                                       "not the paper's) (aliases: supine, crossed_legs, straight_limbs)")
+    g.add_argument("--partition", help=f"one of {', '.join(PARTITIONS)} (the first six are the paper's; "
+                                       f"aliases: {', '.join(ALIASES)}); pressurepose.pose.partitions describes them")
     g.add_argument("--gender", help="f or m")
     g.add_argument("--limbs-on-bed", action="store_true",
                    help="start elbows, wrists, knees and ankles over the mattress (the paper's 'plo')")

@@ -34,8 +34,9 @@ def sampler_config(config: GenerationConfig):
 
 def provenance(config: GenerationConfig) -> dict:
     """Every setting of the physics a dataset is made with, as JSON-ready values: the sampler's
-    (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``) and, for a
-    randomised dataset, the ranges drawn from (``randomize``). The
+    (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``), for a
+    randomised dataset the ranges drawn from (``randomize``) and, for a partition with a wedge,
+    the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
     from pressurepose.sim.bed import get_bed
@@ -47,6 +48,12 @@ def provenance(config: GenerationConfig) -> dict:
         from pressurepose.sim.randomize import RandomizationRanges
 
         record["randomize"] = dataclasses.asdict(RandomizationRanges())
+    from pressurepose.pose.partitions import get_partition
+
+    if get_partition(config.partition).wedge:
+        from pressurepose.sim import wedge
+
+        record["wedge"] = wedge.constants()
     return json.loads(json.dumps(record))  # tuples as lists: as it reads back
 
 

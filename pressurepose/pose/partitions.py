@@ -40,6 +40,8 @@ class Partition:
     crossed_legs: the left ankle lies on the right ankle's side of it (toward the body's right).
     arm_height_band: (low, high) of the wrist height minus the shoulder height, m (None: the
     sampler's general band).
+    wedge: a foam wedge props the body's back while it settles and presses on the mat with it
+    (:mod:`pressurepose.sim.wedge`).
     """
 
     name: str
@@ -53,6 +55,7 @@ class Partition:
     crossed_legs: bool = False
     arm_height_band: tuple[float, float] | None = None
     wrist_to_head: float | None = None
+    wedge: bool = False
 
 
 PARTITIONS: dict[str, Partition] = {p.name: p for p in (
@@ -74,6 +77,11 @@ PARTITIONS: dict[str, Partition] = {p.name: p for p in (
     # front while settling, so side-lying rests are a small share of the paper's mix
     Partition("general_lateral", "on either side (roll 60-120 deg each way; not a paper partition); legs "
               "over 4 bins, arms over 8", roll=(np.pi / 3, 2 * np.pi / 3), either_side=True),
+    # not one of the paper's: half-turned bodies propped by a wedge, as nurses position patients
+    # (PMD experiment I's "30 deg / 60 deg (wedge)" postures)
+    Partition("propped_lateral", "half turned onto either side (roll 25-70 deg each way) with a foam wedge "
+              "behind the back (not a paper partition); legs over 4 bins, arms over 8",
+              roll=(np.radians(25.0), np.radians(70.0)), either_side=True, wedge=True),
 )}
 # short names used in the issue and the first drafts of the CLI
 ALIASES: dict[str, str] = {"supine": "general_supine", "crossed_legs": "supine_crossed_legs",

@@ -31,6 +31,9 @@ _COL = {name: i for i, name in enumerate(COUNTERS)}
 # cause codes of limb candidates: 0 accepted, i + 1 for LIMB_CAUSES[i]
 _HEIGHT, _BIN, _INTO_BED, _OFF_MATTRESS, _NOT_BEHIND_HEAD, _LIMB_COLLISION = range(1, len(LIMB_CAUSES) + 1)
 HEAD = joint_index("head")
+# a wedge partition's limbs stay in front of the trunk's back (where the wedge goes), within this
+# tolerance (m): the settle rejects a capsule starting more than 1 cm inside the wedge
+WEDGE_CLEARANCE_M = 0.005
 MAX_ROUND_GROWTH = 16  # limb candidates per round grow up to this factor (memory stays bounded)
 
 
@@ -82,6 +85,7 @@ class Run:
         self.W, self.M = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
         self.pelvis = np.zeros((n, 3))
         self.support = np.zeros(n)  # height of the surface the body lies on (pelvis at height 0)
+        self.back = np.zeros((n, 2))  # wedge partitions: the trunk's back (SMPL z) and top (SMPL y)
         self.lengths = np.zeros((n, len(LIMBS)))
         self.bins = np.zeros((n, len(LIMBS)), dtype=np.int64)
         self.angles = [np.zeros((n, lo.size)) for lo, _ in self.boxes]
@@ -122,6 +126,12 @@ class Run:
         rest_ends = [self.rest[i, CAPSULE_JOINTS[k]] + self.cap_ends[i, k] for k in SUPPORT_CAPSULES]
         z = to_world(np.stack(rest_ends)[None], self.M[i:i + 1], self.rest[i:i + 1, 0], self.pelvis[i:i + 1])
         self.support[i] = np.min(z[0, ..., 2] - caps.radius[list(SUPPORT_CAPSULES), None])
+        if self.part.wedge:
+            from pressurepose.sim.wedge import TRUNK
+
+            k = [CAPSULE_NAMES.index(c) for c in TRUNK]
+            trunk = self.rest[i, [CAPSULE_JOINTS[c] for c in k]][:, None] + self.cap_ends[i, k]  # (4, 2, 3) SMPL axes
+            self.back[i] = (np.min(trunk[..., 2] - caps.radius[k, None]), np.max(trunk[..., 1]))
 
     def _draw_bins(self, i: int, limbs) -> None:
         for li in limbs:
@@ -193,7 +203,22 @@ class Run:
         left = np.flatnonzero(cause == 0)
         if left.size and self.limb_pairs[li]:
             cause[left[self._limb_collides(li, bodies[left], ends[left])]] = _LIMB_COLLISION
+        left = np.flatnonzero(cause == 0)
+        if left.size and part.wedge:
+            cause[left[self._behind_back(li, bodies[left], ends[left])]] = _LIMB_COLLISION
         return cause
+
+    def _behind_back(self, li: int, bodies: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """(N,) True where a capsule of the limb reaches behind the trunk's back, inside the wedge
+        that a wedge partition puts there (it runs ``wedge.LENGTH_M`` footward from the trunk's top;
+        counted as a limb collision). The body faces SMPL's +z; ends (N, n_caps, 2, 3) as
+        :meth:`_limb_collides`'."""
+        from pressurepose.sim.wedge import LENGTH_M
+
+        r = self.cap_radius[bodies][:, list(LIMBS[li].capsules), None]
+        back, top = self.back[bodies, 0][:, None, None], self.back[bodies, 1][:, None, None]
+        span = (ends[..., 1] <= top) & (ends[..., 1] >= top - LENGTH_M)
+        return np.any(span & (ends[..., 2] - r < back - WEDGE_CLEARANCE_M), axis=(1, 2))
 
     def _limb_collides(self, li: int, bodies: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """(N,) True where a limb's checked capsule penetrates another capsule it alone decides.

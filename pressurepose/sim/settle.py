@@ -23,7 +23,13 @@ A sample is rejected, and the cause counted, when it:
 * ``posture_changed``: leaves the posture class (supine / left or right lateral / prone) it started
   in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
   early instead of running on until it rests or falls off), or rests in another class;
-* ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job).
+* ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job);
+* ``support_overlap``: (with a wedge) starts with a capsule more than 1 cm inside the wedge (a
+  limb behind the back where the wedge goes).
+
+With ``wedge=True`` a foam wedge props the body (:mod:`pressurepose.sim.wedge`): a rigid box
+placed against the trunk's back where the body starts, touching the body only; the result holds
+the wedge and the forces the body leans on it with.
 
 Model choices measured here (``benchmarks/bench_settle.py``, docs/RESULTS.md): elliptic friction cones
 (with pyramidal ones a supine body crept 1-2 cm sideways and resting limbs chattered, taking 2-3x the
@@ -57,12 +63,14 @@ from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
-from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_of_rotation
-from pressurepose.sim.ragdoll import (LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
+from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
+from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
                                       limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
-                                      ragdoll_params, write_params)
+                                      ragdoll_params, rotation_to_quat, write_params)
 
-STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision")
+STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
+            "support_overlap")
+SUPPORT_OVERLAP_M = 0.01  # a capsule this deep in the wedge where the body starts: rejected
 PELVIS = CAPSULE_NAMES.index("pelvis")
 _CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 _WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -149,6 +157,9 @@ class SettleResult:
     posture_start, posture: posture class of the input and of the result.
     mass_kg: body mass; bed_force_n: total vertical force on the mattress at the end (m g at rest);
     max_sink_m: the deepest cell displacement at the end (positive down).
+    wedge: the :class:`~pressurepose.sim.wedge.Wedge` that propped the body (None without one);
+    wedge_points (K, 3) and wedge_force_z (K,): where the body leans on it at the end and the
+    vertical force (N, >= 0) pressing the wedge down there (empty without a wedge).
     """
 
     status: str
@@ -165,6 +176,9 @@ class SettleResult:
     mass_kg: float
     bed_force_n: float
     max_sink_m: float
+    wedge: object = None
+    wedge_points: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+    wedge_force_z: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
     @property
     def ok(self) -> bool:
@@ -172,20 +186,23 @@ class SettleResult:
 
 
 class SettleModel:
-    """One compiled MuJoCo model (ragdoll + cell bed) reused for every body on one bed and config.
+    """One compiled MuJoCo model (ragdoll + cell bed, and with ``support`` a wedge, placed per body)
+    reused for every body on one bed and config.
 
     The first body compiles it; later bodies rewrite the shape-dependent numbers in place.
     ``model``, ``data``, ``cells``, ``ragdoll`` (a :class:`RagdollIndex`), ``cell_index``,
     ``stiffness_n_m3`` (the cells' foundation modulus, calibrated unless the config sets it).
     """
 
-    def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams):
+    def __init__(self, bed: BedSpec, config: SettleConfig, params: RagdollParams, support: bool = False):
         self.bed, self.config = bed, config
         k = config.stiffness_n_m3
         self.stiffness_n_m3 = settle_stiffness(bed, config) if k is None else k
         self.cells: CellBed = settle_cells(bed, config, self.stiffness_n_m3)
-        self.model = build_spec(params, self.cells, config).compile()
+        self.model = build_spec(params, self.cells, config, support).compile()
         self.data = mujoco.MjData(self.model)
+        self.support_geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "support") if support else -1
+        self.support_mocap = int(self.model.body_mocapid[self.model.geom_bodyid[self.support_geom]]) if support else -1
         self.ragdoll = RagdollIndex.of(self.model)
         self.cell_index = CellIndex.of(self.model, self.cells)
         # the ragdoll comes first in the tree: its dofs are the leading block
@@ -352,9 +369,10 @@ def settle_stiffness(bed: BedSpec, config: SettleConfig) -> float:
     return k
 
 
-def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> mujoco.MjSpec:
-    """The settle model as an MjSpec: the ragdoll first, then the cell bed; implicitfast integrator,
-    Newton solver, pyramidal friction cones."""
+def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig, support: bool = False) -> mujoco.MjSpec:
+    """The settle model as an MjSpec: the ragdoll first, then the cell bed, then with ``support`` a
+    mocap body "support" holding a box (the wedge, sized and placed per body, colliding with the
+    body only); implicitfast integrator, Newton solver, ``config.cone`` friction cones."""
     spec = mujoco.MjSpec()
     spec.modelname = "settle"
     spec.compiler.degree = False
@@ -371,18 +389,23 @@ def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig) -> m
     add_ragdoll(spec, params, self_collision=config.self_collision, friction=cells.friction,
                 contact_timeconst_s=cells.contact_timeconst_s)
     add_cells(spec, cells)
+    if support:
+        holder = spec.worldbody.add_body(name="support", mocap=True, pos=[0.0, 0.0, -10.0])
+        holder.add_geom(name="support", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.1, 0.1], contype=BED_BIT,
+                        conaffinity=0, condim=3, friction=[cells.friction, 0.005, 0.0001],
+                        solref=[cells.contact_timeconst_s, 1.0])
     return spec
 
 
 _MODELS: dict = {}
 
 
-def settle_model(bed: BedSpec, config: SettleConfig, params: RagdollParams) -> SettleModel:
-    """The cached :class:`SettleModel` for (bed, config), compiled with ``params`` the first time.
-    One per process: it holds one ``MjData``, so threads must not settle concurrently."""
-    key = (bed, config)
+def settle_model(bed: BedSpec, config: SettleConfig, params: RagdollParams, support: bool = False) -> SettleModel:
+    """The cached :class:`SettleModel` for (bed, config, support), compiled with ``params`` the
+    first time. One per process: it holds one ``MjData``, so threads must not settle concurrently."""
+    key = (bed, config, bool(support))
     if key not in _MODELS:
-        _MODELS[key] = SettleModel(bed, config, params)
+        _MODELS[key] = SettleModel(bed, config, params, bool(support))
     return _MODELS[key]
 
 
@@ -409,14 +432,16 @@ def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollInde
 
 
 def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
-           config: SettleConfig | None = None, *, params: RagdollParams | None = None) -> SettleResult:
+           config: SettleConfig | None = None, *, params: RagdollParams | None = None,
+           wedge: bool = False) -> SettleResult:
     """Rest one body on the bed; see the module docstring for the procedure and rejection causes.
 
     body: a ``BodyModel``; betas (S,); pose (72,) SMPL axis-angle; transl (3,) m, z-up bed frame
     (``BodyModel.forward``'s; its height is replaced: the body starts with its lowest capsule point
     ``config.drop_clearance_m`` above the mattress); gender: mass table and mean mass (default the
     body's); bed: a ``BedSpec`` (default ``get_bed()``); config: :class:`SettleConfig`; params: a
-    precomputed :class:`RagdollParams` for this body and shape (default built here).
+    precomputed :class:`RagdollParams` for this body and shape (default built here); wedge: prop
+    the body with a foam wedge behind its back (:func:`pressurepose.sim.wedge.wedge_behind`).
     """
     bed = get_bed() if bed is None else bed
     config = SettleConfig() if config is None else config
@@ -435,7 +460,7 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         caps = capsules_for(body, betas)
         masses = segment_masses(body, betas, g, caps=caps)
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck)
-    sm = settle_model(bed, config, params)
+    sm = settle_model(bed, config, params, support=wedge)
     return _run(sm, params, betas, g, pose, transl)
 
 
@@ -482,6 +507,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     d.qpos[ri.qpos[0] + 2] += cfg.drop_clearance_m - low
     mujoco.mj_forward(m, d)
     start_posture = posture_class(pose)
+    kept = _posture_kept(start_posture, float(roll_angle(pose)), sm.support_geom >= 0)
     weight = params.total_mass * -m.opt.gravity[2]
     x_min, x_max, y_min, y_max = sm.cells.bounds
     limits = _BallLimits(params, ri, cfg.limit_stiffness_factor)
@@ -493,8 +519,11 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     status = "not_settled"
     touch, hold, step = -1, 0, 0
     prev_ends = prev_move = None
+    wedge = _place_wedge(sm, params) if sm.support_geom >= 0 else None
     if _self_overlap(m, d, ri, cfg.self_collision_tol_m):
         status = "self_collision"
+    elif wedge is not None and _in_support(sm):
+        status = "support_overlap"
     else:
         for step in range(1, cfg.max_steps + 1):
             limits.apply(d)
@@ -511,8 +540,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
                 status = "unstable"
                 break
             if step % cfg.posture_check_steps == 0:
-                roll = roll_of_rotation(d.xmat[ri.body[0]].reshape(3, 3))
-                if POSTURES[int(posture_index(roll))] != start_posture:
+                if not kept(float(roll_of_rotation(d.xmat[ri.body[0]].reshape(3, 3)))):
                     status = "posture_changed"
                     break
             com = d.subtree_com[ri.body[0]]
@@ -539,14 +567,66 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     mujoco.mj_forward(m, d)  # positions, contacts and forces of the final state
     out_pose, out_transl = qpos_to_pose(m, ri, params, d.qpos, pose)
     posture = posture_class(out_pose) if np.all(np.isfinite(out_pose)) else "unknown"
-    if status == "settled" and posture != start_posture:
+    if status == "settled" and (posture == "unknown" or not kept(float(roll_angle(out_pose)))):
         status = "posture_changed"
+    points, force_z = _support_forces(sm, wedge) if wedge is not None else (np.zeros((0, 3)), np.zeros(0))
     return SettleResult(status=status, pose=out_pose, transl=out_transl, betas=betas.copy(), gender=str(gender),
                         steps=step, touch_step=touch, capsules=capsule_ends(m, d, ri, params.length),
                         radius=radius.copy(),
                         posture_start=start_posture, posture=posture, mass_kg=params.total_mass,
                         bed_force_n=float(cell_forces(d, sm.cell_index).sum()),
-                        max_sink_m=float(-cell_sink(d, sm.cell_index).min()))
+                        max_sink_m=float(-cell_sink(d, sm.cell_index).min()),
+                        wedge=wedge, wedge_points=points, wedge_force_z=force_z)
+
+
+def _posture_kept(start: str, start_roll: float, wedge: bool):
+    """The test a body's roll (rad) must pass while it settles: in its start posture class; with a
+    wedge, rolled 5-100 degrees to the side it started on (a body propped near 45 degrees may
+    rest in either class on that side; rolling off the wedge onto the back or the front fails)."""
+    if not wedge:
+        return lambda roll: POSTURES[int(posture_index(roll))] == start
+    side = 1.0 if start_roll >= 0 else -1.0
+    return lambda roll: math.radians(5.0) <= side * roll <= math.radians(100.0)
+
+
+def _place_wedge(sm: SettleModel, params: RagdollParams):
+    """Put the support box where the wedge for the body as it starts goes; returns the Wedge."""
+    from pressurepose.sim.wedge import wedge_behind
+
+    m, d, ri, g = sm.model, sm.data, sm.ragdoll, sm.support_geom
+    wedge = wedge_behind(capsule_ends(m, d, ri), params.radius, d.xmat[ri.body[0]].reshape(3, 3))
+    half, centre, rot = wedge.box()
+    m.geom_size[g] = half
+    m.geom_rbound[g] = float(np.linalg.norm(half))
+    m.geom_aabb[g] = np.concatenate([np.zeros(3), half])
+    d.mocap_pos[sm.support_mocap] = centre
+    d.mocap_quat[sm.support_mocap] = rotation_to_quat(rot)
+    mujoco.mj_forward(m, d)
+    return wedge
+
+
+def _in_support(sm: SettleModel) -> bool:
+    """True if a capsule starts deeper than SUPPORT_OVERLAP_M inside the wedge (last mj_forward)."""
+    n = sm.data.ncon
+    geom, dist = sm.data.contact.geom[:n], sm.data.contact.dist[:n]
+    return bool(np.any((geom == sm.support_geom).any(axis=1) & (dist < -SUPPORT_OVERLAP_M)))
+
+
+def _support_forces(sm: SettleModel, wedge) -> tuple[np.ndarray, np.ndarray]:
+    """(K, 3) contact points of the body on the wedge and (K,) the vertical force (N, >= 0) with
+    which the body presses the wedge down at each (last mj_forward)."""
+    m, d = sm.model, sm.data
+    f6 = np.zeros(6)
+    pts, fz = [], []
+    n = wedge.normal
+    for i in np.nonzero((d.contact.geom[: d.ncon] == sm.support_geom).any(axis=1))[0]:
+        mujoco.mj_contactForce(m, d, int(i), f6)
+        f = d.contact.frame[i].reshape(3, 3).T @ f6[:3]
+        if f @ n < 0:
+            f = -f  # the force on the body, which the face pushes outward
+        pts.append(d.contact.pos[i].copy())
+        fz.append(max(0.0, float(f[2])))
+    return np.array(pts).reshape(-1, 3), np.array(fz)
 
 
 def _troubled(data: mujoco.MjData) -> bool:

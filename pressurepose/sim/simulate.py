@@ -78,30 +78,47 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     ``rng``. ``sampler``: the pose sampler's :class:`~pressurepose.pose.config.SamplerConfig`
     (default: its defaults). ``conditions`` (:class:`~pressurepose.sim.randomize.Conditions`):
     settle on ``bed``, then press and read the body on ``conditions.bed(bed)``, the mat moved under
-    it (the labels are in that mat's frame)."""
+    it (the labels are in that mat's frame).
+
+    A partition with a wedge (:attr:`~pressurepose.pose.partitions.Partition.wedge`) settles the
+    body against it; the mattress then carries the body less what the wedge holds
+    (:func:`pressurepose.sim.wedge.relieved_body`), and the mat reads both (:func:`~pressurepose.sim.wedge.with_wedge`)."""
     from pressurepose.pose.config import SamplerConfig
+    from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
-    from pressurepose.sim.press import PressFailed, press
+    from pressurepose.sim.press import PressFailed, mesh_centroid, press
     from pressurepose.sim.settle import settle
     from pressurepose.sim.tissue import body_bones
+    from pressurepose.sim.wedge import relieved_body, with_wedge
 
     drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
                        config=SamplerConfig() if sampler is None else sampler)
-    rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed)
+    rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, wedge=get_partition(partition).wedge)
     if not rest.ok:
         return rest.status
     verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
     if not (SamplerConfig() if sampler is None else sampler).hanging_limbs and limb_off_bed(joints[0], bed):
         return "limb_off_bed"
     pose, transl, press_bed = rest.pose, rest.transl, bed
+    wedge, points = rest.wedge, rest.wedge_points
     if conditions is not None:
         press_bed = conditions.bed(bed)
-        pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, conditions.body_motion(bed))
+        motion = conditions.body_motion(bed)
+        pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, motion)
         verts, _ = body.forward(rest.betas, pose, transl)
+        if wedge is not None:
+            wedge, points = wedge.moved(motion), points @ motion[:3, :3].T + motion[:3, 3]
+    mass, com_xy = rest.mass_kg, None
     try:
-        image = press(verts[0], body.faces, rest.mass_kg, press_bed, bones=body_bones(body, rest.betas, pose, transl))
+        if wedge is not None:
+            mass, com_xy = relieved_body(rest.mass_kg, mesh_centroid(verts[0], body.faces)[1][:2], points,
+                                         rest.wedge_force_z)
+        image = press(verts[0], body.faces, mass, press_bed, com_xy=com_xy,
+                      bones=body_bones(body, rest.betas, pose, transl))
     except PressFailed:
         return "press_failed"
+    if wedge is not None:
+        image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
     pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
