@@ -168,6 +168,9 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keep-wedge", action="store_true",
                    help="also compare real images recorded on a wedge (PMD postures 4-7; left out by default: "
                         "the body is turned 30-60 deg, not lying on its side)")
+    p.add_argument("--only-wedge", action="store_true",
+                   help="compare only the real images recorded on a wedge (PMD postures 4-7), e.g. with a "
+                        "propped_lateral dataset")
     p.add_argument("--examples", type=int, default=3, help="example images per set and posture (default 3)")
     p.add_argument("--match-extent", action="store_true",
                    help="compare like postures: resample the simulated images of each posture so that how long "
@@ -182,7 +185,9 @@ def run_realism(args) -> int:
 
     out = check_output_path(args.out, "--out", directory=True)
     sim = load_synthetic(args.synthetic, args.mat)
-    real = load_real(args.real, sim.mat, exclude_detail=() if args.keep_wedge else ("wedge",))
+    wedge = args.keep_wedge or args.only_wedge
+    real = load_real(args.real, sim.mat, exclude_detail=() if wedge else ("wedge",),
+                     only_detail=("wedge",) if args.only_wedge else ())
     report = realism_report(real, sim, match=args.match_extent)
     report["headline"] = headline(report)
     out.mkdir(parents=True, exist_ok=True)

@@ -43,8 +43,9 @@ class ImageSet:
 
 
 def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge",), frames: str = "one",
-              weak_fraction: float = 0.1) -> ImageSet:
-    """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring)."""
+              weak_fraction: float = 0.1, only_detail: tuple[str, ...] = ()) -> ImageSet:
+    """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring);
+    ``only_detail``: keep only images whose source posture names one of these words (e.g. "wedge")."""
     from pressurepose.data.readers.real import read_real
     from pressurepose.data.realprep import prepare
     from pressurepose.eval.real import detail_has, weak_images
@@ -52,8 +53,11 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
     real = read_real(folder, frames=frames)
     group = R.posture_group(real.posture)
     keep = (group != "") & ~detail_has(real.detail, exclude_detail) & ~weak_images(real, weak_fraction)
+    if only_detail:
+        keep &= detail_has(real.detail, only_detail)
     if not keep.any():
-        raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label")
+        raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label"
+                       + (f" naming {' or '.join(only_detail)}" if only_detail else ""))
     r = real.select(keep)
     x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
     return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat,

@@ -141,6 +141,9 @@ def test_realism_verb_end_to_end(tmp_path):
     assert main(args) == 0
     m = json.loads((out / "realism.json").read_text())["postures"]["supine"]["match"]
     assert m["coverage"] > 0 and m["distinct_sim_images"] >= 1
+    # only the wedge postures: this folder has none
+    assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "sim.npz"),
+                 "--out", str(out), "--only-wedge"]) == 2
 
 
 def test_load_synthetic_reads_a_dataset_directory(tmp_path):
