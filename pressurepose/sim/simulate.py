@@ -28,7 +28,8 @@ class Simulated:
     mass kg, height m) and ``image``, the :class:`~pressurepose.sim.press.PressResult`
     (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest;
     ``conditions``: the randomised bed it was pressed on (:class:`~pressurepose.sim.randomize.Conditions`),
-    or None (the nominal bed)."""
+    or None (the nominal bed); ``wedge``: the :class:`~pressurepose.sim.wedge.Wedge` that propped the
+    body, in the labels' frame (None without one)."""
 
     betas: np.ndarray
     pose: np.ndarray
@@ -39,6 +40,7 @@ class Simulated:
     image: object
     settle_steps: int
     conditions: object = None
+    wedge: object = None
 
 
 def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
@@ -123,4 +125,4 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
                      mass=float(rest.mass_kg), height=float(body.height(rest.betas)[0]), image=image,
-                     settle_steps=int(rest.steps), conditions=conditions)
+                     settle_steps=int(rest.steps), conditions=conditions, wedge=wedge)

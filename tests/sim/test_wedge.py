@@ -162,3 +162,4 @@ def test_a_propped_image_shows_the_wedge_beside_the_body(female):
     beside = img.force[~img.contact]
     assert beside.sum() > 0.02 * s.mass * G  # the wedge carries part of the body
     assert np.all(img.pressure >= 0) and np.isfinite(img.pressure).all()
+    assert s.wedge is not None and 0 < s.wedge.angle_rad < math.pi / 2
