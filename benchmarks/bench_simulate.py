@@ -30,7 +30,6 @@ import os
 import platform
 import shutil
 import tempfile
-import time
 from pathlib import Path
 
 import mujoco
@@ -42,12 +41,13 @@ from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
 
 # (partition, limbs on bed): the paper recipe's partitions (two exist there only with limbs over the
-# bed), then the project's side-lying partition (not in the recipe)
+# bed), then the project's side-lying and propped partitions (not in the recipe)
 PARTITIONS = (("general", False), ("general_supine", False), ("hands_behind_head", True),
               ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False),
-              ("general_lateral", False))
+              ("general_lateral", False), ("propped_lateral", False))
 GENDERS = ("f", "m")
-CAUSES = ("not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision", "press_failed", "limb_off_bed")
+CAUSES = ("not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision", "support_overlap",
+          "press_failed", "limb_off_bed")
 GOAL = 3.0
 
 
@@ -57,37 +57,20 @@ def cli_args(partition: str, gender: str, plo: bool, count: int, seed: int, out:
 
 
 def breakdown(config: GenerationConfig) -> dict:
-    """Every attempt of ``config``'s samples, as the physics producer makes them, with its steps and CPU."""
+    """Every attempt of ``config``'s samples, made by the physics producer's own call
+    (:func:`pressurepose.sim.simulate.simulate_one`), with its settle steps and the CPU of its phases."""
     from pressurepose.data.physics import _setup, sampler_config
-    from pressurepose.pose.sampler import sample_one
-    from pressurepose.sim.press import PressFailed, press
-    from pressurepose.sim.settle import settle
-    from pressurepose.sim.simulate import limb_off_bed
-    from pressurepose.sim.tissue import body_bones
+    from pressurepose.sim.simulate import simulate_one
 
     body, bed = _setup(config.gender, config.mat)
     rows = []  # (status, steps, sample s, settle s, press s)
     for i in range(config.count):
         for attempt in range(config.max_attempts):
-            rng = attempt_rng(config, i, attempt)
-            t0 = time.process_time()
-            drawn = sample_one(config.partition, config.gender, rng, config.limbs_on_bed, body=body,
-                               config=sampler_config(config))
-            t1 = time.process_time()
-            rest = settle(body, drawn.betas, drawn.pose, drawn.transl, config.gender, bed=bed)
-            t2 = time.process_time()
-            status = rest.status
-            if rest.ok:  # as simulate_one: the hanging-limb rule, then the tissue press
-                verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
-                if limb_off_bed(joints[0], bed):
-                    status = "limb_off_bed"
-                else:
-                    try:
-                        press(verts[0], body.faces, rest.mass_kg, bed,
-                              bones=body_bones(body, rest.betas, rest.pose, rest.transl))
-                    except PressFailed:
-                        status = "press_failed"
-            rows.append((status, rest.steps, t1 - t0, t2 - t1, time.process_time() - t2))
+            t: dict = {}
+            res = simulate_one(body, bed, config.partition, config.gender, attempt_rng(config, i, attempt),
+                               config.limbs_on_bed, sampler_config(config), timings=t)
+            status = res if isinstance(res, str) else "settled"
+            rows.append((status, t["steps"], t["sample"], t["settle"], t["press"]))
             if status == "settled":
                 break
     return {"rows": rows}

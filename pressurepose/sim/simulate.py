@@ -7,6 +7,7 @@ translation, so ``BodyModel.forward(betas, pose, transl)`` reproduces the presse
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,7 +74,8 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
 
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
-                 limbs_on_bed: bool = False, sampler=None, conditions=None) -> Simulated | str:
+                 limbs_on_bed: bool = False, sampler=None, conditions=None, timings: dict | None = None
+                 ) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
     pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
     (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from
@@ -84,7 +86,10 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
 
     A partition with a wedge (:attr:`~pressurepose.pose.partitions.Partition.wedge`) settles the
     body against it; the mattress then carries the body less what the wedge holds
-    (:func:`pressurepose.sim.wedge.relieved_body`), and the mat reads both (:func:`~pressurepose.sim.wedge.with_wedge`)."""
+    (:func:`pressurepose.sim.wedge.relieved_body`), and the mat reads both (:func:`~pressurepose.sim.wedge.with_wedge`).
+
+    ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
+    ``press``: what ran) and the settle's ``steps`` (for benchmarks)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
@@ -93,9 +98,14 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     from pressurepose.sim.tissue import body_bones
     from pressurepose.sim.wedge import relieved_body, with_wedge
 
+    clock = {} if timings is None else timings
+    t0 = time.process_time()
     drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
                        config=SamplerConfig() if sampler is None else sampler)
+    t1 = time.process_time()
     rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, wedge=get_partition(partition).wedge)
+    t2 = time.process_time()
+    clock.update(sample=t1 - t0, settle=t2 - t1, press=0.0, steps=int(rest.steps))
     if not rest.ok:
         return rest.status
     verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
@@ -112,15 +122,18 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
             wedge, points = wedge.moved(motion), points @ motion[:3, :3].T + motion[:3, 3]
     mass, com_xy = rest.mass_kg, None
     try:
+        t3 = time.process_time()
         if wedge is not None:
             mass, com_xy = relieved_body(rest.mass_kg, mesh_centroid(verts[0], body.faces)[1][:2], points,
                                          rest.wedge_force_z)
         image = press(verts[0], body.faces, mass, press_bed, com_xy=com_xy,
                       bones=body_bones(body, rest.betas, pose, transl))
     except PressFailed:
+        clock["press"] = time.process_time() - t3
         return "press_failed"
     if wedge is not None:
         image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
+    clock["press"] = time.process_time() - t3
     pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],

@@ -152,8 +152,11 @@ def test_sampled_propped_bodies_keep_their_limbs_out_of_the_wedge(female):
 
 def test_a_propped_image_shows_the_wedge_beside_the_body(female):
     for seed in range(30):
-        s = simulate_one(female, BED, "propped_lateral", "f", np.random.default_rng(seed))
+        clock = {}
+        s = simulate_one(female, BED, "propped_lateral", "f", np.random.default_rng(seed), timings=clock)
+        assert set(clock) == {"sample", "settle", "press", "steps"} and min(clock.values()) >= 0
         if not isinstance(s, str) and (s.image.force[~s.image.contact] > 0).sum() > 20:
+            assert clock["steps"] > 0 and clock["press"] > 0
             break
     else:
         pytest.fail("no propped image with a wedge footprint in 30 attempts")
