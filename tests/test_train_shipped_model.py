@@ -56,7 +56,7 @@ def test_lateral_entries_are_added_to_the_training_split_only(tmp_path):
     assert len(load_recipe(path)) == len(recipe["entries"])
 
 
-def test_propped_entries_are_added_by_default_with_their_own_seed():
+def test_propped_entries_are_training_entries_with_their_own_seed():
     tool = _tool()
     paper = json.loads(tool.PAPER_RECIPE.read_text())
     base = tool.scaled_recipe(paper, 1000, 150, 77, 78)
