@@ -35,6 +35,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.sim.foundation import PressFailed
+from pressurepose.sim.sensor import GRAVITY
 
 FOAM_DENSITY = 30.0    # kg/m^3: polyurethane positioning foam (about 25-40)
 MIN_HEIGHT_M = 0.18    # a positioning wedge's back face (wedges are sold about 15-30 cm high)
@@ -161,7 +162,7 @@ def wedge_load(wedge: Wedge, points, force_z, xs, ys) -> np.ndarray:
     out = np.zeros(X.shape)
     if not on_base.any():
         return out
-    weight = 9.81 * wedge.mass_kg
+    weight = GRAVITY * wedge.mass_kg
     rel = p[:, :2] - wedge.toe[:2]
     pu, pv = rel @ wedge.axis[:2], rel @ wedge.rise[:2] - b / 2
     total = weight + f.sum()
@@ -180,11 +181,12 @@ def relieved_body(mass_kg: float, com_xy, points, force_z) -> tuple[float, np.nd
     Raises :class:`~pressurepose.sim.foundation.PressFailed` when the wedge holds over 95 % of the body."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     f = np.asarray(force_z, dtype=np.float64).reshape(-1)
-    w = 9.81 * float(mass_kg) - float(f.sum())
-    if w <= 0.05 * 9.81 * mass_kg:
-        raise PressFailed(f"the wedge holds {f.sum():.0f} N of a {9.81 * mass_kg:.0f} N body; the mattress carries almost nothing")
-    c = (9.81 * mass_kg * np.asarray(com_xy, dtype=np.float64) - f @ p[:, :2]) / w
-    return w / 9.81, c
+    w = GRAVITY * float(mass_kg) - float(f.sum())
+    if w <= 0.05 * GRAVITY * mass_kg:
+        raise PressFailed(f"the wedge holds {f.sum():.0f} N of a {GRAVITY * mass_kg:.0f} N body; "
+                          "the mattress carries almost nothing")
+    c = (GRAVITY * mass_kg * np.asarray(com_xy, dtype=np.float64) - f @ p[:, :2]) / w
+    return w / GRAVITY, c
 
 
 def with_wedge(result, wedge: Wedge, points, force_z, bed):
