@@ -175,21 +175,38 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 SIM_FIELDS = ("pressure", "force", "depth", "contact", "betas", "pose", "transl", "joints", "mass", "height")
+# the wedge that propped a body (propped partitions; NaN for the others): toe (3), axis (3), rise (3),
+# angle rad, height m, length m, mass kg (pressurepose.sim.wedge.Wedge)
+WEDGE_FIELDS = ("toe_x", "toe_y", "toe_z", "axis_x", "axis_y", "axis_z", "rise_x", "rise_y", "rise_z",
+                "angle_rad", "height_m", "length_m", "mass_kg")
 MAX_SIM_COUNT = 10_000  # bodies per file (the file is rewritten after each body); use `generate` for more
 
 
 def _record(sim) -> dict:
-    """The arrays of one settled body (see SIM_FIELDS)."""
+    """The arrays of one settled body (see SIM_FIELDS), and its ``wedge`` (WEDGE_FIELDS; NaN without one)."""
     m = sim.image
+    w = sim.wedge
+    wedge = np.full(len(WEDGE_FIELDS), np.nan) if w is None else np.concatenate(
+        [w.toe, w.axis, w.rise, [w.angle_rad, w.height_m, w.length_m, w.mass_kg]])
     return {"pressure": m.pressure, "force": m.force, "depth": m.depth, "contact": m.contact, "betas": sim.betas,
             "pose": sim.pose, "transl": sim.transl, "joints": sim.joints, "mass": np.float64(sim.mass),
-            "height": np.float64(sim.height)}
+            "height": np.float64(sim.height), "wedge": wedge}
+
+
+def _wedge_of(row):
+    """The Wedge stored in a ``wedge`` row (WEDGE_FIELDS), or None."""
+    from pressurepose.sim.wedge import Wedge
+
+    r = np.asarray(row, dtype=np.float64)
+    if r.shape != (len(WEDGE_FIELDS),) or not np.all(np.isfinite(r)):
+        return None
+    return Wedge(r[0:3], r[3:6], r[6:9], float(r[9]), float(r[10]), float(r[11]), float(r[12]))
 
 
 def _save_simulated(path, done: list[dict], rejected, **extra) -> None:
     from pressurepose.files import save_npz_atomic
 
-    save_npz_atomic(path, **{k: np.stack([r[k] for r in done]) for k in SIM_FIELDS},
+    save_npz_atomic(path, **{k: np.stack([r[k] for r in done]) for k in SIM_FIELDS + ("wedge",)},
                     rejection_causes=np.array(sorted(rejected), dtype=str),
                     rejection_counts=np.array([rejected[k] for k in sorted(rejected)], dtype=np.int64), **extra)
 
@@ -207,7 +224,9 @@ def _resume(partial, run_key: str, count: int):
             if str(z["run_key"]) != run_key:
                 raise BadInput(f"{partial} holds bodies of another simulate command; remove it or use another --out")
             n = min(len(z["pressure"]), count)
-            done = [{k: z[k][i] for k in SIM_FIELDS} for i in range(n)]
+            done = [{**{k: z[k][i] for k in SIM_FIELDS},
+                     "wedge": z["wedge"][i] if "wedge" in z.files else np.full(len(WEDGE_FIELDS), np.nan)}
+                    for i in range(n)]
             rejected = Counter(dict(zip(map(str, z["rejection_causes"]), map(int, z["rejection_counts"]))))
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise BadInput(f"{partial} (bodies of an interrupted run) is unreadable ({exc}); remove it") from None
@@ -270,6 +289,19 @@ def run_simulate(args) -> int:
     return 0
 
 
+def _draw_wedge_side(ax, wedge) -> None:
+    """The wedge's outline seen from the side (y along the bed, z up), shaded behind the body."""
+    from scipy.spatial import ConvexHull
+
+    half = wedge.axis * wedge.length_m / 2
+    back = wedge.toe + wedge.rise * wedge.base_width_m
+    top = back + np.array([0.0, 0.0, wedge.height_m])
+    pts = np.array([p + sgn * half for p in (wedge.toe, back, top) for sgn in (-1.0, 1.0)])[:, 1:]
+    hull = pts[ConvexHull(pts).vertices]
+    ax.fill(hull[:, 0], hull[:, 1], color="tan", alpha=0.5, zorder=0, label="wedge")
+    ax.legend(loc="upper right", fontsize=8)
+
+
 def _plot_simulated(body, bed, done):
     import matplotlib
 
@@ -288,6 +320,9 @@ def _plot_simulated(body, bed, done):
         fig.colorbar(im, ax=a_img, fraction=0.06, label="mmHg")
         verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
         draw_mesh(a_side, verts[0], body.faces, "bed_side")
+        wedge = _wedge_of(s.get("wedge"))
+        if wedge is not None:
+            _draw_wedge_side(a_side, wedge)
         a_side.axhline(0.0, color="0.4", lw=1)
         a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
         a_side.set_xlabel("y along the bed (m)")
