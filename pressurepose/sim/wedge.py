@@ -42,6 +42,7 @@ MIN_HEIGHT_M = 0.18    # a positioning wedge's back face (wedges are sold about 
 OVER_CONTACT_M = 0.08  # the back face rises this far above the highest point the trunk may lean on
 LENGTH_M = 1.1         # from the shoulders to the knees (PMD's wedge imprints run about 1.1-1.3 m)
 TOE_BELOW_M = 0.1      # the box realising the face runs on below the toe, into the mattress
+LEAN_RAD = 0.0         # the face is this much flatter than the trunk is rolled (the body leans back onto it)
 BOX_HALF_THICKNESS_M = 0.05
 TRUNK = ("pelvis", "spine", "spine1", "spine2")  # capsules the wedge is placed against
 
@@ -50,7 +51,7 @@ def constants() -> dict:
     """The module's constants that shape every wedge (for a dataset's provenance)."""
     return {"foam_density_kg_m3": FOAM_DENSITY, "min_height_m": MIN_HEIGHT_M, "over_contact_m": OVER_CONTACT_M,
             "length_m": LENGTH_M, "toe_below_m": TOE_BELOW_M, "box_half_thickness_m": BOX_HALF_THICKNESS_M,
-            "trunk": list(TRUNK)}
+            "lean_rad": LEAN_RAD, "trunk": list(TRUNK)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,8 +97,8 @@ class Wedge:
 
 def wedge_behind(capsule_ends: np.ndarray, radius: np.ndarray, root_rotation: np.ndarray) -> Wedge:
     """The wedge that props a half-turned body: its face tangent to the back of the trunk's
-    capsules, inclined as the trunk is rolled, running ``LENGTH_M`` from the top of the trunk
-    toward the feet.
+    capsules, inclined as the trunk is rolled (less ``LEAN_RAD``), running ``LENGTH_M`` from the top
+    of the trunk toward the feet.
 
     capsule_ends (20, 2, 3) and radius (20,): the ragdoll's capsules (bed frame,
     :data:`pressurepose.body.capsules.CAPSULE_NAMES` order) where the body starts;
@@ -123,6 +124,9 @@ def wedge_behind(capsule_ends: np.ndarray, radius: np.ndarray, root_rotation: np
     rise = -n.copy()
     rise[2] = 0.0
     rise /= np.linalg.norm(rise)
+    if LEAN_RAD > 0:  # a flatter face, touching the trunk where it first meets it
+        angle = max(math.radians(10), angle - LEAN_RAD)
+        n = np.array([0.0, 0.0, math.cos(angle)]) - rise * math.sin(angle)
     k = [CAPSULE_NAMES.index(c) for c in TRUNK]
     pts, r = ends[k].reshape(-1, 3), np.repeat(np.asarray(radius, dtype=np.float64)[k], 2)
     offset = pts @ n - r
