@@ -320,7 +320,7 @@ def _fake_simulate_one(calls):
             return "unstable"
         return SimpleNamespace(image=_Image(rng), betas=rng.normal(size=10), pose=rng.normal(size=72),
                                transl=rng.normal(size=3), joints=rng.normal(size=(24, 3)), mass=60 + 10 * draw,
-                               height=1.7)
+                               height=1.7, wedge=None)
     return fake
 
 
