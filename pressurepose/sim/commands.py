@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.cli import seed_arg
+from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
 
 def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
@@ -158,7 +159,8 @@ def _plot_history(ax, res):
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
     from pressurepose.pose.commands import add_body_arguments
 
-    p.add_argument("--partition", required=True, help="posture partition, e.g. general_supine, general, prone_hands_up")
+    p.add_argument("--partition", required=True,
+                   help=f"posture partition: {', '.join(PARTITIONS)} (also {', '.join(ALIASES)})")
     p.add_argument("--gender", required=True, help="f or m")
     p.add_argument("--limbs-on-bed", action="store_true", help="start every limb over the mattress")
     p.add_argument("--height-reference", choices=("proximal", "bed"), default="proximal",
@@ -175,32 +177,17 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 SIM_FIELDS = ("pressure", "force", "depth", "contact", "betas", "pose", "transl", "joints", "mass", "height")
-# the wedge that propped a body (propped partitions; NaN for the others): toe (3), axis (3), rise (3),
-# angle rad, height m, length m, mass kg (pressurepose.sim.wedge.Wedge)
-WEDGE_FIELDS = ("toe_x", "toe_y", "toe_z", "axis_x", "axis_y", "axis_z", "rise_x", "rise_y", "rise_z",
-                "angle_rad", "height_m", "length_m", "mass_kg")
+# and "wedge": the wedge that propped a body (pressurepose.sim.wedge.FIELDS; NaN without one)
+NO_WEDGE = np.full(13, np.nan)
 MAX_SIM_COUNT = 10_000  # bodies per file (the file is rewritten after each body); use `generate` for more
 
 
 def _record(sim) -> dict:
-    """The arrays of one settled body (see SIM_FIELDS), and its ``wedge`` (WEDGE_FIELDS; NaN without one)."""
+    """The arrays of one settled body (see SIM_FIELDS), and its ``wedge`` (NaN without one)."""
     m = sim.image
-    w = sim.wedge
-    wedge = np.full(len(WEDGE_FIELDS), np.nan) if w is None else np.concatenate(
-        [w.toe, w.axis, w.rise, [w.angle_rad, w.height_m, w.length_m, w.mass_kg]])
     return {"pressure": m.pressure, "force": m.force, "depth": m.depth, "contact": m.contact, "betas": sim.betas,
             "pose": sim.pose, "transl": sim.transl, "joints": sim.joints, "mass": np.float64(sim.mass),
-            "height": np.float64(sim.height), "wedge": wedge}
-
-
-def _wedge_of(row):
-    """The Wedge stored in a ``wedge`` row (WEDGE_FIELDS), or None."""
-    from pressurepose.sim.wedge import Wedge
-
-    r = np.asarray(row, dtype=np.float64)
-    if r.shape != (len(WEDGE_FIELDS),) or not np.all(np.isfinite(r)):
-        return None
-    return Wedge(r[0:3], r[3:6], r[6:9], float(r[9]), float(r[10]), float(r[11]), float(r[12]))
+            "height": np.float64(sim.height), "wedge": NO_WEDGE if sim.wedge is None else sim.wedge.as_array()}
 
 
 def _save_simulated(path, done: list[dict], rejected, **extra) -> None:
@@ -225,7 +212,7 @@ def _resume(partial, run_key: str, count: int):
                 raise BadInput(f"{partial} holds bodies of another simulate command; remove it or use another --out")
             n = min(len(z["pressure"]), count)
             done = [{**{k: z[k][i] for k in SIM_FIELDS},
-                     "wedge": z["wedge"][i] if "wedge" in z.files else np.full(len(WEDGE_FIELDS), np.nan)}
+                     "wedge": z["wedge"][i] if "wedge" in z.files else NO_WEDGE}
                     for i in range(n)]
             rejected = Counter(dict(zip(map(str, z["rejection_causes"]), map(int, z["rejection_counts"]))))
     except (OSError, ValueError, KeyError, EOFError) as exc:
@@ -308,6 +295,7 @@ def _plot_simulated(body, bed, done):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from pressurepose.sim.wedge import Wedge
     from pressurepose.viz.mesh import draw_mesh
 
     mat = bed.mat
@@ -320,7 +308,7 @@ def _plot_simulated(body, bed, done):
         fig.colorbar(im, ax=a_img, fraction=0.06, label="mmHg")
         verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
         draw_mesh(a_side, verts[0], body.faces, "bed_side")
-        wedge = _wedge_of(s.get("wedge"))
+        wedge = Wedge.from_array(s["wedge"])
         if wedge is not None:
             _draw_wedge_side(a_side, wedge)
         a_side.axhline(0.0, color="0.4", lw=1)

@@ -22,7 +22,8 @@ A sample is rejected, and the cause counted, when it:
   ``fall_depth_m`` below the mattress top;
 * ``posture_changed``: leaves the posture class (supine / left or right lateral / prone) it started
   in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
-  early instead of running on until it rests or falls off), or rests in another class;
+  early instead of running on until it rests or falls off), or rests in another class (with a
+  wedge: leaves 5-100 degrees of roll on the side it started on);
 * ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job);
 * ``support_overlap``: (with a wedge) starts with a capsule more than 1 cm inside the wedge (a
   limb behind the back where the wedge goes).

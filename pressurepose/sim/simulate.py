@@ -121,19 +121,19 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
         if wedge is not None:
             wedge, points = wedge.moved(motion), points @ motion[:3, :3].T + motion[:3, 3]
     mass, com_xy = rest.mass_kg, None
+    t3 = time.process_time()
     try:
-        t3 = time.process_time()
         if wedge is not None:
             mass, com_xy = relieved_body(rest.mass_kg, mesh_centroid(verts[0], body.faces)[1][:2], points,
                                          rest.wedge_force_z)
         image = press(verts[0], body.faces, mass, press_bed, com_xy=com_xy,
                       bones=body_bones(body, rest.betas, pose, transl))
+        if wedge is not None:
+            image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
     except PressFailed:
-        clock["press"] = time.process_time() - t3
         return "press_failed"
-    if wedge is not None:
-        image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
-    clock["press"] = time.process_time() - t3
+    finally:
+        clock["press"] = time.process_time() - t3
     pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],

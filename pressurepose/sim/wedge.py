@@ -45,6 +45,9 @@ TOE_BELOW_M = 0.1      # the box realising the face runs on below the toe, into 
 LEAN_RAD = 0.0         # the face is this much flatter than the trunk is rolled (the body leans back onto it)
 BOX_HALF_THICKNESS_M = 0.05
 TRUNK = ("pelvis", "spine", "spine1", "spine2")  # capsules the wedge is placed against
+# a Wedge as one row of numbers (Wedge.as_array, Wedge.from_array)
+FIELDS = ("toe_x", "toe_y", "toe_z", "axis_x", "axis_y", "axis_z", "rise_x", "rise_y", "rise_z",
+          "angle_rad", "height_m", "length_m", "mass_kg")
 
 
 def constants() -> dict:
@@ -74,6 +77,19 @@ class Wedge:
     def normal(self) -> np.ndarray:
         """(3,) unit normal of the inclined face, pointing out of the wedge (toward the body)."""
         return np.array([0.0, 0.0, 1.0]) * math.cos(self.angle_rad) - self.rise * math.sin(self.angle_rad)
+
+    def as_array(self) -> np.ndarray:
+        """(13,) the wedge as numbers, in :data:`FIELDS` order."""
+        return np.concatenate([self.toe, self.axis, self.rise,
+                               [self.angle_rad, self.height_m, self.length_m, self.mass_kg]])
+
+    @staticmethod
+    def from_array(row) -> "Wedge | None":
+        """The wedge of a :meth:`as_array` row, or None for a row that is not one (e.g. all NaN)."""
+        r = np.asarray(row, dtype=np.float64)
+        if r.shape != (len(FIELDS),) or not np.all(np.isfinite(r)):
+            return None
+        return Wedge(r[0:3], r[3:6], r[6:9], float(r[9]), float(r[10]), float(r[11]), float(r[12]))
 
     def moved(self, transform: np.ndarray) -> "Wedge":
         """The wedge after a rigid motion (4, 4) of the bed frame that keeps z up (a shift and a yaw)."""

@@ -19,13 +19,13 @@ def test_simulate_writes_labels_that_match_the_images(tmp_path, capsys):
 
 
 def test_simulate_keeps_and_draws_the_wedge_of_a_propped_body(tmp_path, capsys):
-    from pressurepose.sim.commands import _wedge_of
+    from pressurepose.sim.wedge import Wedge
 
     out = tmp_path / "p.npz"
     assert main(["simulate", "--partition", "propped_lateral", "--gender", "m", "--count", "1", "--seed", "3",
                  "--out", str(out), "--plot", str(tmp_path / "p.png")]) == 0
     z = np.load(out)
-    w = _wedge_of(z["wedge"][0])
+    w = Wedge.from_array(z["wedge"][0])
     assert w is not None and 0 < w.angle_rad < np.pi / 2 and w.height_m > 0
     assert abs(np.linalg.norm(w.axis) - 1) < 1e-9
     # the wedge's base shows on the mat: force where the body does not touch

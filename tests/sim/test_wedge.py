@@ -145,8 +145,8 @@ def test_sampled_propped_bodies_keep_their_limbs_out_of_the_wedge(female):
     for seed in range(6):
         d = sample_one("propped_lateral", "f", np.random.default_rng(100 + seed), False, body=female,
                        config=SamplerConfig())
-        cfg_short = settle(female, d.betas, d.pose, d.transl, "f", BED, wedge=True)
-        statuses.append(cfg_short.status)
+        rest = settle(female, d.betas, d.pose, d.transl, "f", BED, wedge=True)
+        statuses.append(rest.status)
     assert "support_overlap" not in statuses, statuses
 
 
@@ -166,3 +166,10 @@ def test_a_propped_image_shows_the_wedge_beside_the_body(female):
     assert beside.sum() > 0.02 * s.mass * G  # the wedge carries part of the body
     assert np.all(img.pressure >= 0) and np.isfinite(img.pressure).all()
     assert s.wedge is not None and 0 < s.wedge.angle_rad < math.pi / 2
+
+
+def test_a_wedge_round_trips_through_its_row_of_numbers():
+    w = _flat_wedge()
+    back = Wedge.from_array(w.as_array())
+    assert np.array_equal(back.as_array(), w.as_array()) and back.base_width_m == w.base_width_m
+    assert Wedge.from_array(np.full(13, np.nan)) is None and Wedge.from_array(np.zeros(5)) is None
