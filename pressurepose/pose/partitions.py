@@ -23,6 +23,11 @@ from pressurepose.errors import BadInput
 
 LEG_BINS = 4
 ARM_BINS = 8
+# The wedge of a wedge partition, as the sampler must know it to keep limbs out of it: it lies
+# against these trunk capsules and runs WEDGE_LENGTH_M footward from the trunk's top (from the
+# shoulders to the knees; PMD's wedge imprints run about 1.1-1.3 m). pressurepose.sim.wedge builds it.
+WEDGE_TRUNK: tuple[str, ...] = ("pelvis", "spine", "spine1", "spine2")
+WEDGE_LENGTH_M = 1.1
 
 
 @dataclass(frozen=True)
@@ -41,7 +46,7 @@ class Partition:
     arm_height_band: (low, high) of the wrist height minus the shoulder height, m (None: the
     sampler's general band).
     wedge: a foam wedge props the body's back while it settles and presses on the mat with it
-    (:mod:`pressurepose.sim.wedge`).
+    (:mod:`pressurepose.sim.wedge`; its trunk capsules and length: ``WEDGE_TRUNK``, ``WEDGE_LENGTH_M``).
     """
 
     name: str

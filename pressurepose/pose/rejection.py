@@ -19,7 +19,7 @@ from pressurepose.pose.collision import CHECKED_DEFAULT, checker, limb_pairs, se
 from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.limbs import LIMBS, limb_geometry, limb_lengths, to_world
 from pressurepose.pose.limits import JointLimits, joint_limits
-from pressurepose.pose.partitions import Partition, arm_bin, leg_bin
+from pressurepose.pose.partitions import WEDGE_LENGTH_M, WEDGE_TRUNK, Partition, arm_bin, leg_bin
 from pressurepose.pose.root import draw_betas, draw_placement, root_axis_angle, slide_along_bed, world_rotation
 from pressurepose.pose.samples import COUNTERS, LIMB_CAUSES
 
@@ -127,9 +127,7 @@ class Run:
         z = to_world(np.stack(rest_ends)[None], self.M[i:i + 1], self.rest[i:i + 1, 0], self.pelvis[i:i + 1])
         self.support[i] = np.min(z[0, ..., 2] - caps.radius[list(SUPPORT_CAPSULES), None])
         if self.part.wedge:
-            from pressurepose.sim.wedge import TRUNK
-
-            k = [CAPSULE_NAMES.index(c) for c in TRUNK]
+            k = [CAPSULE_NAMES.index(c) for c in WEDGE_TRUNK]
             trunk = self.rest[i, [CAPSULE_JOINTS[c] for c in k]][:, None] + self.cap_ends[i, k]  # (4, 2, 3) SMPL axes
             self.back[i] = (np.min(trunk[..., 2] - caps.radius[k, None]), np.max(trunk[..., 1]))
 
@@ -210,14 +208,12 @@ class Run:
 
     def _behind_back(self, li: int, bodies: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """(N,) True where a capsule of the limb reaches behind the trunk's back, inside the wedge
-        that a wedge partition puts there (it runs ``wedge.LENGTH_M`` footward from the trunk's top;
+        that a wedge partition puts there (it runs ``WEDGE_LENGTH_M`` footward from the trunk's top;
         counted as a limb collision). The body faces SMPL's +z; ends (N, n_caps, 2, 3) as
         :meth:`_limb_collides`'."""
-        from pressurepose.sim.wedge import LENGTH_M
-
         r = self.cap_radius[bodies][:, list(LIMBS[li].capsules), None]
         back, top = self.back[bodies, 0][:, None, None], self.back[bodies, 1][:, None, None]
-        span = (ends[..., 1] <= top) & (ends[..., 1] >= top - LENGTH_M)
+        span = (ends[..., 1] <= top) & (ends[..., 1] >= top - WEDGE_LENGTH_M)
         return np.any(span & (ends[..., 2] - r < back - WEDGE_CLEARANCE_M), axis=(1, 2))
 
     def _limb_collides(self, li: int, bodies: np.ndarray, ends: np.ndarray) -> np.ndarray:

@@ -34,17 +34,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.pose import partitions
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.sensor import GRAVITY
 
 FOAM_DENSITY = 30.0    # kg/m^3: polyurethane positioning foam (about 25-40)
 MIN_HEIGHT_M = 0.18    # a positioning wedge's back face (wedges are sold about 15-30 cm high)
 OVER_CONTACT_M = 0.08  # the back face rises this far above the highest point the trunk may lean on
-LENGTH_M = 1.1         # from the shoulders to the knees (PMD's wedge imprints run about 1.1-1.3 m)
 TOE_BELOW_M = 0.1      # the box realising the face runs on below the toe, into the mattress
 LEAN_RAD = 0.0         # the face is this much flatter than the trunk is rolled (the body leans back onto it)
 BOX_HALF_THICKNESS_M = 0.05
-TRUNK = ("pelvis", "spine", "spine1", "spine2")  # capsules the wedge is placed against
 # a Wedge as one row of numbers (Wedge.as_array, Wedge.from_array)
 FIELDS = ("toe_x", "toe_y", "toe_z", "axis_x", "axis_y", "axis_z", "rise_x", "rise_y", "rise_z",
           "angle_rad", "height_m", "length_m", "mass_kg")
@@ -53,8 +52,9 @@ FIELDS = ("toe_x", "toe_y", "toe_z", "axis_x", "axis_y", "axis_z", "rise_x", "ri
 def constants() -> dict:
     """The module's constants that shape every wedge (for a dataset's provenance)."""
     return {"foam_density_kg_m3": FOAM_DENSITY, "min_height_m": MIN_HEIGHT_M, "over_contact_m": OVER_CONTACT_M,
-            "length_m": LENGTH_M, "toe_below_m": TOE_BELOW_M, "box_half_thickness_m": BOX_HALF_THICKNESS_M,
-            "lean_rad": LEAN_RAD, "trunk": list(TRUNK)}
+            "length_m": partitions.WEDGE_LENGTH_M, "toe_below_m": TOE_BELOW_M,
+            "box_half_thickness_m": BOX_HALF_THICKNESS_M, "lean_rad": LEAN_RAD,
+            "trunk": list(partitions.WEDGE_TRUNK)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,8 +113,8 @@ class Wedge:
 
 def wedge_behind(capsule_ends: np.ndarray, radius: np.ndarray, root_rotation: np.ndarray) -> Wedge:
     """The wedge that props a half-turned body: its face tangent to the back of the trunk's
-    capsules, inclined as the trunk is rolled (less ``LEAN_RAD``), running ``LENGTH_M`` from the top
-    of the trunk toward the feet.
+    capsules (``partitions.WEDGE_TRUNK``), inclined as the trunk is rolled (less ``LEAN_RAD``),
+    running ``partitions.WEDGE_LENGTH_M`` from the top of the trunk toward the feet.
 
     capsule_ends (20, 2, 3) and radius (20,): the ragdoll's capsules (bed frame,
     :data:`pressurepose.body.capsules.CAPSULE_NAMES` order) where the body starts;
@@ -143,7 +143,7 @@ def wedge_behind(capsule_ends: np.ndarray, radius: np.ndarray, root_rotation: np
     if LEAN_RAD > 0:  # a flatter face, touching the trunk where it first meets it
         angle = max(math.radians(10), angle - LEAN_RAD)
         n = np.array([0.0, 0.0, math.cos(angle)]) - rise * math.sin(angle)
-    k = [CAPSULE_NAMES.index(c) for c in TRUNK]
+    k = [CAPSULE_NAMES.index(c) for c in partitions.WEDGE_TRUNK]
     pts, r = ends[k].reshape(-1, 3), np.repeat(np.asarray(radius, dtype=np.float64)[k], 2)
     offset = pts @ n - r
     d = float(offset.min())               # the face: n . x = d, touching the trunk's back
@@ -152,12 +152,12 @@ def wedge_behind(capsule_ends: np.ndarray, radius: np.ndarray, root_rotation: np
     base = np.array([centre[0], centre[1], 0.0])
     toe = base + (d - base @ n) / (rise @ n) * rise
     along = pts @ axis
-    mid = float(along.max()) - LENGTH_M / 2
+    mid = float(along.max()) - partitions.WEDGE_LENGTH_M / 2
     toe = toe + (mid - toe @ axis) * axis
     height = max(MIN_HEIGHT_M, float(touch[2]) + OVER_CONTACT_M)
     base_width = height / math.tan(angle)
-    mass = FOAM_DENSITY * 0.5 * base_width * height * LENGTH_M
-    return Wedge(toe, axis, rise, angle, height, LENGTH_M, mass)
+    mass = FOAM_DENSITY * 0.5 * base_width * height * partitions.WEDGE_LENGTH_M
+    return Wedge(toe, axis, rise, angle, height, partitions.WEDGE_LENGTH_M, mass)
 
 
 def wedge_load(wedge: Wedge, points, force_z, xs, ys) -> np.ndarray:

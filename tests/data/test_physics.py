@@ -81,11 +81,12 @@ def test_manifest_records_the_physics_constants_and_a_resume_under_others_is_ref
 def test_a_wedge_partitions_provenance_holds_the_wedges_constants(tmp_path, monkeypatch):
     from pressurepose.data import physics
     from pressurepose.data.schema import GenerationConfig
-    from pressurepose.sim import wedge
+    from pressurepose.pose import partitions
 
     plain = physics.provenance(GenerationConfig(partition="general_lateral", gender="f", count=2, seed=3))
     propped = physics.provenance(GenerationConfig(partition="propped_lateral", gender="f", count=2, seed=3))
     assert "wedge" not in plain
-    assert propped["wedge"]["length_m"] == wedge.LENGTH_M and propped["wedge"]["trunk"] == list(wedge.TRUNK)
-    monkeypatch.setattr(wedge, "LENGTH_M", 0.5)
+    assert propped["wedge"]["length_m"] == partitions.WEDGE_LENGTH_M
+    assert propped["wedge"]["trunk"] == list(partitions.WEDGE_TRUNK)
+    monkeypatch.setattr(partitions, "WEDGE_LENGTH_M", 0.5)
     assert physics.provenance(GenerationConfig(partition="propped_lateral", gender="f", count=2, seed=3)) != propped

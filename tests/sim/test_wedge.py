@@ -16,7 +16,8 @@ from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.posture import roll_angle, roll_of_rotation
 from pressurepose.sim.settle import settle
 from pressurepose.sim.simulate import simulate_one
-from pressurepose.sim.wedge import TRUNK, Wedge, relieved_body, wedge_behind, wedge_load
+from pressurepose.pose.partitions import WEDGE_TRUNK
+from pressurepose.sim.wedge import Wedge, relieved_body, wedge_behind, wedge_load
 
 G = 9.81
 BED = get_bed()
@@ -43,7 +44,7 @@ def test_the_face_is_inclined_as_the_body_is_rolled_and_touches_the_trunks_back(
     assert np.allclose(n, -W[:, 1] - (-W[:, 1] @ w.axis) * w.axis, atol=1e-9)  # the body's front
     assert abs(w.axis @ np.array([0.0, 0.0, 1.0])) < 1e-12 and abs(w.rise[2]) < 1e-12
     assert abs(w.toe[2]) < 1e-12
-    k = [CAPSULE_NAMES.index(c) for c in TRUNK]
+    k = [CAPSULE_NAMES.index(c) for c in WEDGE_TRUNK]
     gap = ends[k].reshape(-1, 3) @ n - np.repeat(radius[k], 2) - w.toe @ n
     assert gap.min() == pytest.approx(0.0, abs=1e-9)  # tangent: touching, not inside
     # the box's top face is the inclined face; its axes are a right-handed frame
