@@ -223,16 +223,17 @@ class Run:
         ends (SMPL frame, no root); fixed capsules rest at their joints.
         """
         limb = LIMBS[li]
-        hit = np.zeros(len(bodies), dtype=bool)
-        for a, c in self.limb_pairs[li]:
-            ea = ends[:, limb.capsules.index(a)]
-            if c in limb.capsules:
-                ec = ends[:, limb.capsules.index(c)]
-            else:
-                ec = self.rest[bodies, CAPSULE_JOINTS[c]][:, None] + self.cap_ends[bodies, c]
-            d = segment_distance(ea[:, 0], ea[:, 1], ec[:, 0], ec[:, 1])
-            hit |= d < self.col_radius[bodies, a] + self.col_radius[bodies, c]
-        return hit
+        pairs = self.limb_pairs[li]
+        a = np.array([p[0] for p in pairs])
+        c = np.array([p[1] for p in pairs])
+        ea = ends[:, [limb.capsules.index(k) for k in a]]  # (N, P, 2, 3)
+        fixed = self.rest[bodies][:, [CAPSULE_JOINTS[k] for k in c]][:, :, None] + self.cap_ends[bodies][:, c]
+        own = np.array([k in limb.capsules for k in c])
+        ec = np.where(own[None, :, None, None], ends[:, [limb.capsules.index(k) if o else 0 for k, o in zip(c, own)]],
+                      fixed)
+        d = segment_distance(ea[..., 0, :], ea[..., 1, :], ec[..., 0, :], ec[..., 1, :])  # (N, P)
+        radius = self.col_radius[bodies]
+        return np.any(d < radius[:, a] + radius[:, c], axis=1)
 
     def _sample_limb(self, li: int, idx: np.ndarray) -> np.ndarray:
         """Choose limb li's angles for bodies idx (each body in its own generator's order).
