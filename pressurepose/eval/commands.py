@@ -98,7 +98,7 @@ def run_evaluate_real(args) -> int:
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
     from pressurepose.eval.real import (RealEvalConfig, evaluate_real, format_confusion, format_real_table,
-                                        gallery_figure)
+                                        format_subject_table, gallery_figure)
     from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic, write_text_atomic
     from pressurepose.net.infer import resolve_model
 
@@ -140,6 +140,7 @@ def run_evaluate_real(args) -> int:
     report = (f"# PressureNet on real images\n\nmodel: {args.model or 'shipped'}\n\n{headline}\n\n"
               f"## By posture\n\n{format_real_table(s)}\n\n## By posture label\n\n"
               f"{format_real_table(s, 'per_posture')}\n\n## By body model\n\n{format_real_table(s, 'by_body_model')}"
+              f"\n\n## By subject\n\n{format_subject_table(s)}"
               f"\n\n## Posture confusion\n\n{format_confusion(s['confusion'])}\n")
     write_text_atomic(out / "report.md", report)
     import matplotlib.pyplot as plt

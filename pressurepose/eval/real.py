@@ -137,6 +137,12 @@ def summarise(rows: dict) -> dict:
         vals = rows[col]
         order = sorted(set(vals.tolist()), key=lambda v: (len(v), v) if col == "subject" else v)
         out[key] = {str(v): _stats(rows, vals == v) for v in order}
+    for v, st in out["per_subject"].items():  # what the subject measured, beside what was estimated
+        sel = rows["subject"] == v
+        st.update(height_m=float(rows["height_m"][sel].mean()), weight_kg=float(rows["weight_kg"][sel].mean()),
+                  stature_mean_m=float(rows["stature_m"][sel].mean()),
+                  stature_sd_m=float(rows["stature_m"][sel].std()), mass_mean_kg=float(rows["mass_kg"][sel].mean()))
+    out["stature_weight_r"] = _corr(rows["stature_m"], rows["weight_kg"])
     sc = rows["scored"]
     out["confusion"] = confusion(rows["posture"][sc], rows["predicted"][sc])
     wedge = is_wedge(rows["detail"])
@@ -172,6 +178,22 @@ def format_real_table(summary: dict, key: str = "per_detail") -> str:
         lines.append(f"| {name} | {s['n']} | {f(s['posture_accuracy'], '.2f')} | {f(s.get('abs_roll_median_deg'), '.0f')} | "
                      f"{100 * s['stature_mae_m']:.1f} | "
                      f"{100 * s['stature_bias_m']:+.1f} | {s['mass_mae_kg']:.1f} | {s['contact_iou']:.2f} |")
+    return "\n".join(lines)
+
+
+def format_subject_table(summary: dict) -> str:
+    """Markdown table per subject: measured height and weight beside the mean estimated stature
+    and mass (and the spread of the stature over the subject's images), with the posture accuracy.
+    A model that reads size shows estimates that follow the heights down the table."""
+    lines = ["| subject | n | height (m) | estimated stature, mean (sd) (m) | weight (kg) | estimated mass, mean (kg) | "
+             "posture acc. |", "|---|---|---|---|---|---|---|"]
+    for name, s in summary["per_subject"].items():
+        acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
+        lines.append(f"| {name} | {s['n']} | {s['height_m']:.2f} | {s['stature_mean_m']:.2f} ({s['stature_sd_m']:.2f}) | "
+                     f"{s['weight_kg']:.0f} | {s['mass_mean_kg']:.0f} | {acc} |")
+    r_h, r_w = summary.get("stature_r"), summary.get("stature_weight_r")
+    f = lambda v: "-" if v is None else f"{v:.2f}"  # noqa: E731
+    lines.append(f"\nCorrelation of the estimated stature with the measured height {f(r_h)}, with the weight {f(r_w)}.")
     return "\n".join(lines)
 
 

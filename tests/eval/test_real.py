@@ -80,7 +80,15 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
     assert set(m["per_subject"]) == {"s0", "s1"}
     assert sum(c for row in m["confusion"].values() for c in row.values()) == 4
     assert 0 <= m["contact_iou"] <= 1 and (out / "gallery.png").stat().st_size > 0
-    assert "| supine |" in (out / "report.md").read_text()
+    report = (out / "report.md").read_text()
+    assert "| supine |" in report and "## By subject" in report
+    for subject in ("s0", "s1"):  # each subject's measured size beside the mean estimate
+        mine = [r for r in rows if r["subject"] == subject]
+        ps_ = m["per_subject"][subject]
+        assert ps_["height_m"] == pytest.approx(np.mean([r["height_m"] for r in mine]))
+        assert ps_["weight_kg"] == pytest.approx(np.mean([r["weight_kg"] for r in mine]))
+        assert ps_["stature_mean_m"] == pytest.approx(np.mean([r["stature_m"] for r in mine]))
+        assert f"| {subject} | {ps_['n']} | {ps_['height_m']:.2f} |" in report
     # without a gender both body models estimate each image
     folder2 = write_labelled(tmp_path / "lab2", imgs[:2], ["supine", "right"], {"preset": "boditrak_bt3510",
                                                                                  "units": "mmHg"})
