@@ -133,6 +133,8 @@ def main() -> int:
     p.add_argument("--cpu-amp", action=argparse.BooleanOptionalAction, default=True,
                    help="bf16 autocast on the CPU [on]")
     p.add_argument("--contact-floor", type=float, default=5.0, help="input contact floor, mmHg [5]")
+    p.add_argument("--cut-feet", type=float, default=0.0,
+                   help="share of training images cut short at the foot end (train --cut-feet) [0]")
     p.add_argument("--gender-input", action=argparse.BooleanOptionalAction, default=True,
                    help="also feed the gender flag to the CNN (not in the paper; --no-gender-input: the paper's) [on]")
     p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
@@ -167,6 +169,7 @@ def main() -> int:
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
+        *(["--cut-feet", str(args.cut_feet)] if args.cut_feet else []),
         *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", "0")
     cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))
     if Path(args.real).is_dir():

@@ -46,6 +46,9 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
                         "in training and in every later use of the model [5: above 99 %% of the faint readings a "
                         "real mat shows away from the body; 0 is the paper's p > 0, which reads a real mat's "
                         "background as body (docs/sim_to_real.md)]")
+    p.add_argument("--cut-feet", type=float, default=0.0, metavar="P",
+                   help="with the noise model, the share of training images cut short at the foot end, as by a "
+                        "mat shorter than the body (the last 1-8 rows of contact dropped; not in the paper) [0]")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
@@ -55,6 +58,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
 def run_train(args) -> int:
     from pressurepose.net.checkpoint import body_model
     from pressurepose.net.data import load_dataset
+    from pressurepose.net.noise import NoiseConfig
     from pressurepose.net.train import TrainConfig, train
 
     from pressurepose.errors import BadInput
@@ -63,13 +67,16 @@ def run_train(args) -> int:
     check_output_path(args.out, "--out", directory=True)
     if args.limit is not None and args.limit < 1:
         raise BadInput(f"--limit is {args.limit}; expected a whole number >= 1 (or leave it out for all samples)")
+    if not 0 <= args.cut_feet <= 1:
+        raise BadInput(f"--cut-feet is {args.cut_feet}; expected a share from 0 to 1")
     data = load_dataset(args.data, limit=args.limit)
     config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
                          lr=args.lr, lr_mod2=args.lr_mod2, lr_schedule=args.lr_schedule, weight_decay=args.weight_decay, noise=not args.no_noise,
                          use_pmr=not args.no_pmr, edges_contact=not args.no_edges_contact,
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
-                         cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor)
+                         cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
+                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet))
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
     tensors = {k: v for k, v in data.tensors.items() if k != "partition"}

@@ -178,6 +178,9 @@ def _with_defaults(stored: dict | None) -> dict | None:
     if isinstance(stored.get("train"), dict):
         stored["train"].setdefault("cnn", "paper")
         stored["train"].setdefault("contact_floor_mmhg", 0.0)
+        if isinstance(stored["train"].get("noise_config"), dict):
+            stored["train"]["noise_config"].setdefault("cut_feet_p", 0.0)
+            stored["train"]["noise_config"].setdefault("cut_feet_rows", 8)
     if isinstance(stored.get("net"), dict):
         stored["net"].setdefault("cnn_channels", list(CNN_VARIANTS["paper"]))
         if isinstance(stored["net"].get("inputs"), dict):

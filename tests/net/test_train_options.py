@@ -87,6 +87,8 @@ def test_runs_saved_before_the_options_existed_still_resume(tmp_path):
     state = json.loads((tmp_path / "state.json").read_text())
     del state["identity"]["train"]["cnn"]
     del state["identity"]["net"]["cnn_channels"]
+    del state["identity"]["train"]["noise_config"]["cut_feet_p"]
+    del state["identity"]["train"]["noise_config"]["cut_feet_rows"]
     (tmp_path / "state.json").write_text(json.dumps(state))
     more = train(data, tmp_path, TrainConfig(epochs_mod1=2, epochs_mod2=0, batch_size=4, lr=1e-4),
                  bodies=(body, body), grid=GRID)
