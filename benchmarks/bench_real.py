@@ -129,12 +129,15 @@ def main() -> int:
         "",
         section("By body model"),
         "",
+        "By subject (each subject's images with both body models):",
+        "",
+        section("By subject"),
+        "",
     ]
     if syn:
         lines += ["The same numbers on simulated images (`pressurepose evaluate`, freshly generated, "
-                  f"{args.synthetic} per gender and partition; `general_supine` seeds 902/903 are the first samples "
-                  "of the shipped model's held-out test set, `general` seeds 904/905 include bodies on their side "
-                  "and front):", "",
+                  f"{args.synthetic} per gender and partition, seeds 902-905, which the shipped model's data "
+                  "(seeds 1410-1414) does not use; `general` includes bodies on their side and front):", "",
                   "| data | n | posture acc. | stature MAE (cm) | stature bias (cm) | MPJPE (cm) |",
                   "|---|---|---|---|---|---|"]
         for part, s in syn.items():
