@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import torch
 
+from pressurepose.errors import BadInput
 from pressurepose.net.transforms import contact_map
 
 
@@ -36,7 +37,7 @@ class NoiseConfig:
 
     def __post_init__(self):
         if not 0 <= self.cut_feet_p <= 1 or isinstance(self.cut_feet_rows, bool) or self.cut_feet_rows < 1:
-            raise ValueError(f"cut_feet_p = {self.cut_feet_p} must be in [0, 1] and cut_feet_rows = "
+            raise BadInput(f"cut_feet_p = {self.cut_feet_p} must be in [0, 1] and cut_feet_rows = "
                              f"{self.cut_feet_rows} >= 1")
 
 

@@ -59,6 +59,18 @@ def _body_data(body) -> tuple[np.ndarray, np.ndarray, object]:
     return data
 
 
+def _pair_index(limb, pairs) -> tuple[np.ndarray, ...]:
+    """Index arrays of a limb's checked pairs (a, c) for :meth:`Run._limb_collides`: the capsules a
+    and c, a's and c's places among the limb's capsules (0 where c is not the limb's), c's joint, and
+    whether c is the limb's own."""
+    a = np.array([p[0] for p in pairs], dtype=np.int64)
+    c = np.array([p[1] for p in pairs], dtype=np.int64)
+    own = np.array([k in limb.capsules for k in c], dtype=bool)
+    return (a, c, np.array([limb.capsules.index(k) for k in a], dtype=np.int64),
+            np.array([limb.capsules.index(k) if o else 0 for k, o in zip(c, own)], dtype=np.int64),
+            np.array([CAPSULE_JOINTS[k] for k in c], dtype=np.int64), own)
+
+
 class Run:
     """The state of one sampling run: n bodies, each with its own generator (see module doc)."""
 
@@ -72,6 +84,7 @@ class Run:
         checked = tuple(c for c in CHECKED_DEFAULT if not (part.hands_behind_head and c.endswith("_hand")))
         self.collision = checker(checked)
         self.limb_pairs = [limb_pairs(limb.capsules, checked) for limb in LIMBS]
+        self.pair_index = [_pair_index(limb, pairs) for limb, pairs in zip(LIMBS, self.limb_pairs)]
         self.leg_limbs = tuple(li for li, limb in enumerate(LIMBS) if limb.is_leg)
         self.arm_limbs = tuple(li for li, limb in enumerate(LIMBS) if not limb.is_leg)
         n, s = len(rngs), min(NUM_BETAS, body.num_betas)
@@ -222,15 +235,10 @@ class Run:
         bodies: (N,) body of each candidate; ends: (N, n_caps, 2, 3) the candidates' limb capsule
         ends (SMPL frame, no root); fixed capsules rest at their joints.
         """
-        limb = LIMBS[li]
-        pairs = self.limb_pairs[li]
-        a = np.array([p[0] for p in pairs])
-        c = np.array([p[1] for p in pairs])
-        ea = ends[:, [limb.capsules.index(k) for k in a]]  # (N, P, 2, 3)
-        fixed = self.rest[bodies][:, [CAPSULE_JOINTS[k] for k in c]][:, :, None] + self.cap_ends[bodies][:, c]
-        own = np.array([k in limb.capsules for k in c])
-        ec = np.where(own[None, :, None, None], ends[:, [limb.capsules.index(k) if o else 0 for k, o in zip(c, own)]],
-                      fixed)
+        a, c, a_in_limb, c_in_limb, c_joint, own = self.pair_index[li]
+        ea = ends[:, a_in_limb]  # (N, P, 2, 3)
+        fixed = self.rest[bodies][:, c_joint][:, :, None] + self.cap_ends[bodies][:, c]
+        ec = np.where(own[None, :, None, None], ends[:, c_in_limb], fixed)
         d = segment_distance(ea[..., 0, :], ea[..., 1, :], ec[..., 0, :], ec[..., 1, :])  # (N, P)
         radius = self.col_radius[bodies]
         return np.any(d < radius[:, a] + radius[:, c], axis=1)
