@@ -10,6 +10,7 @@ import numpy as np
 
 from pressurepose.cli import seed_arg
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
+from pressurepose.sim.wedge import FIELDS as WEDGE_FIELDS
 
 
 def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
@@ -178,7 +179,7 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
 
 SIM_FIELDS = ("pressure", "force", "depth", "contact", "betas", "pose", "transl", "joints", "mass", "height")
 # and "wedge": the wedge that propped a body (pressurepose.sim.wedge.FIELDS; NaN without one)
-NO_WEDGE = np.full(13, np.nan)
+NO_WEDGE = np.full(len(WEDGE_FIELDS), np.nan)
 MAX_SIM_COUNT = 10_000  # bodies per file (the file is rewritten after each body); use `generate` for more
 
 
