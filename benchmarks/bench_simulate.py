@@ -59,10 +59,10 @@ def cli_args(partition: str, gender: str, plo: bool, count: int, seed: int, out:
 def breakdown(config: GenerationConfig) -> dict:
     """Every attempt of ``config``'s samples, made by the physics producer's own call
     (:func:`pressurepose.sim.simulate.simulate_one`), with its settle steps and the CPU of its phases."""
-    from pressurepose.data.physics import _setup, sampler_config
+    from pressurepose.data.physics import sampler_config, setup
     from pressurepose.sim.simulate import simulate_one
 
-    body, bed = _setup(config.gender, config.mat)
+    body, bed = setup(config)
     rows = []  # (status, steps, sample s, settle s, press s)
     for i in range(config.count):
         for attempt in range(config.max_attempts):

@@ -76,8 +76,12 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
                                     "A.7) or a recipe JSON file; each entry goes to OUT/<entry name>")
     g.add_argument("--scale", type=float, default=1.0,
                    help="with --recipe: multiply every count by this (e.g. 0.01 for a quick small mix)")
-    g.add_argument("--mat", default="boditrak_bt3510", help="mat preset: boditrak_bt3510 (64 x 27, "
-                                                             "default), slp (192 x 84) or tip (56 x 40)")
+    g.add_argument("--mat", default=None, help="mat preset: boditrak_bt3510 (64 x 27, default), slp (192 x 84), "
+                                               "tip (56 x 40) or fsa_softflex_2048 (64 x 32)")
+    g.add_argument("--bed", default=None, metavar="JSON",
+                   help="the bed the bodies lie on: a `pressurepose calibrate --out` file or a BedSpec.to_dict "
+                        "record, its mat a preset (kept in the manifest; the same seed draws the same bodies "
+                        "on any bed) [the mat preset's default bed]")
     g.add_argument("--producer", default="physics", help=_PRODUCER_HELP)
     g.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE",
                    help="producer option, repeatable (synthetic: reject_rate, cost_ms, sleep_ms)")
@@ -107,8 +111,11 @@ def run_generate(args: argparse.Namespace) -> int:
     from pressurepose.data.store import MANIFEST
     from pressurepose.files import check_output_path
 
+    from pressurepose.sim.bed import bed_for
+
     check_output_path(args.out, "--out", directory=True)
-    common = dict(mat=args.mat, shard_size=args.shard_size, producer=args.producer,
+    bed = bed_for(args.mat, args.bed)
+    common = dict(mat=bed.mat.name, bed=bed.to_dict() if args.bed else "", shard_size=args.shard_size, producer=args.producer,
                   max_attempts=args.max_attempts, options=dict(args.option), randomize=bool(args.randomize),
                   **body_settings(args))
     out = Path(args.out)

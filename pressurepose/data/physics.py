@@ -16,11 +16,14 @@ from pressurepose.data.schema import GenerationConfig, Sample
 
 
 @lru_cache(maxsize=8)
-def _setup(gender: str, mat: str):
-    """Body model and bed, built once per worker process for a (gender, mat) pair."""
-    from pressurepose.sim.bed import get_bed
+def _body(gender: str) -> BodyModel:
+    """The body model, built once per worker process for a gender."""
+    return BodyModel(gender)
 
-    return BodyModel(gender), get_bed(mat)
+
+def setup(config: GenerationConfig):
+    """(body model, bed) of a config, built once per worker process."""
+    return _body(config.gender), config.bed_spec()
 
 
 def sampler_config(config: GenerationConfig):
@@ -39,11 +42,10 @@ def provenance(config: GenerationConfig) -> dict:
     the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
-    from pressurepose.sim.bed import get_bed
     from pressurepose.sim.settle import SettleConfig
 
     record = {"sampler": dataclasses.asdict(sampler_config(config)), "settle": dataclasses.asdict(SettleConfig()),
-              "bed": dataclasses.asdict(get_bed(config.mat))}
+              "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges
 
@@ -61,7 +63,7 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
     """One attempt at a labelled sample with the full physics; all randomness from ``rng``."""
     from pressurepose.sim.simulate import simulate_one
 
-    body, bed = _setup(config.gender, config.mat)
+    body, bed = setup(config)
     sampler = sampler_config(config)
     conditions = None
     if config.randomize:

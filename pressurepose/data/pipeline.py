@@ -190,7 +190,14 @@ class ShardAssembler:
 
 def _config_difference(a: GenerationConfig, b: GenerationConfig) -> str:
     da, db = a.to_dict(), b.to_dict()
-    return ", ".join(f"{k}: {da[k]!r} on disk vs {db[k]!r} now" for k in da if da[k] != db.get(k))
+
+    def show(d, k):
+        if k == "bed":
+            return "a given bed" if k in d else "the mat's default bed"
+        return repr(d.get(k))
+
+    return ", ".join(f"{k}: {show(da, k)} on disk vs {show(db, k)} now" for k in dict.fromkeys([*da, *db])
+                     if da.get(k) != db.get(k))
 
 
 def open_output(out: Path, config: GenerationConfig) -> Manifest:

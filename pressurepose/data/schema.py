@@ -36,6 +36,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass, field, fields
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -145,6 +146,32 @@ LEGACY_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", 
                                    "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03}
 
 
+@lru_cache(maxsize=16)
+def _bed_spec(bed: str, mat: str):
+    from pressurepose.sim.bed import BedSpec, get_bed
+
+    return BedSpec.from_dict(json.loads(bed)) if bed else get_bed(mat)
+
+
+def _canonical_bed(bed, mat: str) -> str:
+    """The canonical JSON of a bed record (a JSON string or dict of ``BedSpec.to_dict``; "" for none),
+    checked to be a bed on the mat preset ``mat``."""
+    from pressurepose.sim.bed import BedSpec
+
+    if bed is None or bed == "":
+        return ""
+    if isinstance(bed, str):
+        try:
+            bed = json.loads(bed)
+        except json.JSONDecodeError as exc:
+            raise BadInput(f"bed is not a JSON bed record ({exc})") from None
+    spec = BedSpec.from_dict(bed)
+    if spec.mat != get_mat(mat):
+        raise BadInput(f"the bed's mat ({spec.mat.name}, {spec.mat.rows} x {spec.mat.cols}) is not the preset "
+                       f"{mat!r}; a dataset's bed must carry its mat preset unchanged")
+    return json.dumps(spec.to_dict(), sort_keys=True)
+
+
 @dataclass(frozen=True)
 class GenerationConfig:
     """Everything that decides a dataset's content; saved in its manifest.
@@ -159,7 +186,10 @@ class GenerationConfig:
     (:class:`~pressurepose.pose.config.SamplerConfig`; defaults: SMPL's shape population, bodies
     centred as people lie, 3 and 8 cm spreads, no limb over the edge). randomize: draw the
     bed's, tissue's and sensor's constants and the mat's placement per sample
-    (:mod:`pressurepose.sim.randomize`). A manifest written before these existed read back with
+    (:mod:`pressurepose.sim.randomize`). bed: the bed the bodies lie on, as the canonical JSON
+    of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
+    calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
+    does not change which bodies are drawn, so two beds with one seed give paired datasets. A manifest written before these existed read back with
     :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation).
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
@@ -182,6 +212,7 @@ class GenerationConfig:
     randomize: bool = False
     across_sd_m: float = 0.03
     across_sd_lateral_m: float = 0.08
+    bed: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "partition", check_partition(self.partition))
@@ -212,10 +243,15 @@ class GenerationConfig:
                 raise BadInput(f"{name} = {v!r}; expected a spread in metres from 0 to 0.5")
             object.__setattr__(self, name, float(v))
         object.__setattr__(self, "mat", get_mat(self.mat).name)
+        object.__setattr__(self, "bed", _canonical_bed(self.bed, self.mat))
         if not isinstance(self.producer, str) or not self.producer:
             raise BadInput(f"producer = {self.producer!r}; expected a producer name")
 
     # ---------------------------------------------------------------- derived
+    def bed_spec(self):
+        """The :class:`~pressurepose.sim.bed.BedSpec` the bodies lie on (``bed``, or the mat's default bed)."""
+        return _bed_spec(self.bed, self.mat)
+
     @property
     def option_dict(self) -> dict[str, Any]:
         return dict(self.options)
@@ -250,6 +286,10 @@ class GenerationConfig:
         d = asdict(self)
         d["options"] = dict(self.options)
         d["limbs_on_bed"] = bool(self.limbs_on_bed)
+        if self.bed:
+            d["bed"] = json.loads(self.bed)
+        else:
+            del d["bed"]  # the default bed: configs written before beds could be given keep their digest
         return d
 
     def to_json(self) -> str:
@@ -268,6 +308,9 @@ class GenerationConfig:
         unknown = sorted(set(d) - known)
         if unknown:
             raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
+        d = dict(d)
+        if isinstance(d.get("bed"), dict):
+            d["bed"] = json.dumps(d["bed"], sort_keys=True)
         try:
             return cls(**{**LEGACY_SAMPLING, **d})
         except TypeError as exc:

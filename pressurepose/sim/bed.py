@@ -31,6 +31,10 @@ from pressurepose.errors import BadInput
 INCH = 0.0254
 # Soft tissue's Young's modulus (Pa) for the press; see docs/physics.md for how it was chosen.
 TISSUE_MODULUS_PA = 3.0e3
+# The press's bones by body part: each part's bone is a core of this fraction of the mean body's
+# capsule radius (pressurepose.sim.tissue gives the anatomy behind each default).
+BONE_PARTS = ("pelvis", "spine", "shoulder", "neck", "head", "thigh", "calf", "foot", "upper_arm", "forearm", "hand")
+TISSUE_BONE_FRACTION = (0.6, 0.7, 0.85, 0.6, 0.93, 0.25, 0.35, 0.6, 0.45, 0.55, 0.6)
 
 
 def _check_finite(name: str, v) -> None:
@@ -129,6 +133,30 @@ def custom_mat(rows: int, cols: int, pitch_row_m: float, pitch_col_m: float | No
                    max_mmhg)
 
 
+def _bone_fractions(value) -> tuple[float, ...]:
+    """A complete tuple of bone fractions (BONE_PARTS order) from a tuple of all or a dict of some."""
+    if isinstance(value, dict):
+        unknown = sorted(set(value) - set(BONE_PARTS))
+        if unknown:
+            raise BadInput(f"bed tissue_bone_fraction has unknown parts {unknown}; expected some of "
+                           f"{', '.join(BONE_PARTS)}")
+        value = tuple(value.get(k, d) for k, d in zip(BONE_PARTS, TISSUE_BONE_FRACTION))
+    try:
+        out = tuple(value)
+    except TypeError:
+        raise BadInput(f"bed tissue_bone_fraction is {value!r}; expected {len(BONE_PARTS)} fractions "
+                       f"({', '.join(BONE_PARTS)}) or a dict of some") from None
+    if len(out) != len(BONE_PARTS):
+        raise BadInput(f"bed tissue_bone_fraction has {len(out)} values; expected {len(BONE_PARTS)} "
+                       f"({', '.join(BONE_PARTS)})")
+    for k, v in zip(BONE_PARTS, out):
+        _check_finite(f"bed tissue_bone_fraction {k}", v)
+        if not 0 < v <= 1:
+            raise BadInput(f"bed tissue_bone_fraction {k} is {v!r}; expected a fraction of the capsule's "
+                           f"radius in (0, 1]")
+    return tuple(float(v) for v in out)
+
+
 @dataclass(frozen=True)
 class BedSpec:
     """The mattress, the mat on it and the constants of the foundation and the sensor.
@@ -155,6 +183,9 @@ class BedSpec:
     tissue_modulus_pa: Young's modulus E of the body's soft tissue, Pa: where the press is given
         the body's bones, the tissue of depth t over them is a spring E A / t per cell area A in
         series with the mattress (:mod:`pressurepose.sim.tissue`).
+    tissue_bone_fraction: the radius of each body part's bone (:data:`BONE_PARTS` order) as a
+        fraction of the mean body's capsule radius, which sets how deep the tissue over it is; give
+        a tuple of all, or a dict of some parts (the rest keep :data:`TISSUE_BONE_FRACTION`).
     """
 
     mat: MatSpec = dataclasses.field(default_factory=lambda: get_mat(DEFAULT_MAT))
@@ -173,6 +204,7 @@ class BedSpec:
     press_cell_m: float = 0.01
     tissue_modulus_pa: float = TISSUE_MODULUS_PA
     sensor_threshold_mmhg: float = 0.0
+    tissue_bone_fraction: tuple[float, ...] = TISSUE_BONE_FRACTION
 
     def __post_init__(self):
         if not isinstance(self.mat, MatSpec):
@@ -184,7 +216,9 @@ class BedSpec:
             _check_non_negative(f"bed {field}", getattr(self, field))
         for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
             _check_finite(f"bed {field}", getattr(self, field))
-        for field in [f.name for f in dataclasses.fields(self) if f.name not in ("mat", "mat_offset_m")]:
+        object.__setattr__(self, "tissue_bone_fraction", _bone_fractions(self.tissue_bone_fraction))
+        for field in [f.name for f in dataclasses.fields(self)
+                      if f.name not in ("mat", "mat_offset_m", "tissue_bone_fraction")]:
             object.__setattr__(self, field, float(getattr(self, field)))
         m = self.mat
         if m.width_m > self.mattress_width_m + 1e-9 or m.length_m > self.mattress_length_m + 1e-9:
@@ -266,6 +300,7 @@ class BedSpec:
         """Plain JSON-ready dict (mat included)."""
         d = dataclasses.asdict(self)
         d["mat_offset_m"] = list(self.mat_offset_m)
+        d["tissue_bone_fraction"] = dict(zip(BONE_PARTS, self.tissue_bone_fraction))
         return d
 
     @staticmethod
@@ -318,6 +353,40 @@ class FullGrid:
         x = x0 + (np.arange(self.cols) + 0.5) * self.pitch_col_m
         y = y0 + (np.arange(self.rows) + 0.5) * self.pitch_row_m
         return np.stack(np.meshgrid(x, y), axis=-1)
+
+
+def load_bed(path) -> BedSpec:
+    """The bed in a JSON file: the ``bed`` record written by ``pressurepose calibrate --out FILE``,
+    or a bare :meth:`BedSpec.to_dict` record."""
+    import json
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        record = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise BadInput(f"bed file {str(p)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise BadInput(f"bed file {str(p)!r} is not readable JSON ({exc})") from None
+    if isinstance(record, dict) and isinstance(record.get("bed"), dict):
+        record = record["bed"]
+    if not isinstance(record, dict) or not isinstance(record.get("mat"), dict):
+        raise BadInput(f"bed file {str(p)!r} holds no bed record (write one with pressurepose calibrate, "
+                       f"or BedSpec.to_dict)")
+    return BedSpec.from_dict(record)
+
+
+def bed_for(mat: str | None = None, bed_file=None) -> BedSpec:
+    """The bed of a command line: the one in ``bed_file`` (:func:`load_bed`) whose mat must then be
+    ``mat`` where both are given, else the default bed of the mat preset ``mat`` (default
+    :data:`DEFAULT_MAT`)."""
+    if bed_file is None:
+        return get_bed(DEFAULT_MAT if mat is None else mat)
+    bed = load_bed(bed_file)
+    if mat is not None and get_mat(mat) != bed.mat:
+        raise BadInput(f"--mat {mat} but the bed in {bed_file} carries the {bed.mat.name} mat "
+                       f"({bed.mat.rows} x {bed.mat.cols}); drop --mat or give the bed of that mat")
+    return bed
 
 
 def get_bed(name: str = DEFAULT_MAT, **overrides) -> BedSpec:

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.optimize
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import BedSpec
+from pressurepose.sim.bed import BONE_PARTS, BedSpec
 from pressurepose.sim.calibration_data import CapsuleMeasurements
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import Heightfield, PressResult, body_heightfield, press_heightfield
@@ -60,14 +60,17 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("c2", -0.02, 0.02, False, "sensor curvature, 1/mmHg"),
     Parameter("tissue", math.log10(2e2), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
     Parameter("threshold", 0.0, 10.0, False, "sensor threshold, mmHg: readings below it are 0"),
+    *(Parameter(f"bone_{part}", 0.05, 1.0, False, f"the {part.replace('_', ' ')}'s bone as a fraction of its "
+                f"capsule's radius (BedSpec.tissue_bone_fraction; --targets real only)") for part in BONE_PARTS),
 )}
+BONE_PARAMETERS = tuple(f"bone_{part}" for part in BONE_PARTS)
 
 
 def bed_params(bed: BedSpec) -> dict[str, float]:
     """The fittable constants of a bed, by :data:`PARAMETERS` name."""
     return {"stiffness": bed.stiffness_n_m3, "spread": bed.spread_length_m, "c0": bed.sensor_c0,
             "c1": bed.sensor_c1, "c2": bed.sensor_c2, "tissue": bed.tissue_modulus_pa,
-            "threshold": bed.sensor_threshold_mmhg}
+            "threshold": bed.sensor_threshold_mmhg, **dict(zip(BONE_PARAMETERS, bed.tissue_bone_fraction))}
 
 
 def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
@@ -75,7 +78,8 @@ def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
     p = {**bed_params(bed), **params}
     return dataclasses.replace(bed, stiffness_n_m3=p["stiffness"], coupling_n_m=p["stiffness"] * p["spread"] ** 2,
                                sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"], tissue_modulus_pa=p["tissue"],
-                               sensor_threshold_mmhg=p["threshold"])
+                               sensor_threshold_mmhg=p["threshold"],
+                               tissue_bone_fraction=tuple(p[n] for n in BONE_PARAMETERS))
 
 
 # ------------------------------------------------------------------ objects and loss
@@ -146,23 +150,6 @@ def sensor_penalty(params: dict[str, float], max_mmhg: float) -> float:
     """How far the sensor law's slope c1 + 2 c2 x falls below 0 for x in [0, 2 max_mmhg]."""
     worst = min(params["c1"], params["c1"] + 4.0 * params["c2"] * max_mmhg)
     return PENALTY * max(0.0, -worst)
-
-
-def load_fitted_bed(path) -> BedSpec:
-    """The bed stored by ``pressurepose calibrate --out FILE`` (its ``bed`` record)."""
-    import json
-    from pathlib import Path
-
-    p = Path(path)
-    try:
-        record = json.loads(p.read_text())
-    except FileNotFoundError:
-        raise BadInput(f"bed parameters {str(p)!r} do not exist") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise BadInput(f"bed parameters {str(p)!r} are not readable JSON ({exc})") from None
-    if not isinstance(record, dict) or "bed" not in record:
-        raise BadInput(f"bed parameters {str(p)!r} have no 'bed' record (write them with pressurepose calibrate)")
-    return BedSpec.from_dict(record["bed"])
 
 
 # ------------------------------------------------------------------ CMA-ES

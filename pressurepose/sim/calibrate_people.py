@@ -29,6 +29,7 @@ weight), so they fix the sensor's shape (threshold ``c0``, curvature ``c2``) but
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +42,8 @@ from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.calibrate import (PENALTY, FitResult, bed_params, minimize_cma, readings, sensor_penalty,
                                         with_params)
 from pressurepose.sim.foundation import PressFailed
-from pressurepose.sim.press import Heightfield, body_heightfield, press_heightfield
+from pressurepose.sim.press import Heightfield, body_heightfield, press_heightfield, with_tissue
+from pressurepose.sim.tissue import BoneCores, bone_cores
 
 DEFAULT_FIT = ("stiffness", "tissue", "threshold")
 TOLERANCE = {"area": 0.2, "mean": 0.2, "peak": 0.3, "share": 0.05}
@@ -105,51 +107,77 @@ def targets_from_report(path) -> PeopleTargets:
 @dataclass(frozen=True, eq=False)
 class RestingBody:
     """A settled body ready to be re-pressed: its lower surface and tissue depth on the bed's press
-    grid (:class:`~pressurepose.sim.press.Heightfield`), mass (kg) and posture group."""
+    grid (:class:`~pressurepose.sim.press.Heightfield`), mass (kg), posture group, its bones
+    before the bone fractions (:class:`~pressurepose.sim.tissue.BoneCores`) and the fractions
+    (``BedSpec.tissue_bone_fraction``) the field's tissue was made with."""
 
     field: Heightfield
     mass_kg: float
     posture: str
+    cores: BoneCores
+    fraction: tuple[float, ...]
+
+    def on(self, bed: BedSpec) -> "RestingBody":
+        """The body with the tissue of ``bed``'s bone fractions (itself when they are its own)."""
+        f = bed.tissue_bone_fraction
+        if f == self.fraction:
+            return self
+        return dataclasses.replace(self, field=with_tissue(self.field, self.cores.bones(f)), fraction=f)
 
 
 def resting_body(body, betas, pose, transl, mass_kg: float, bed: BedSpec, posture: str) -> RestingBody:
     """A :class:`RestingBody` of a posed body model (``BodyModel.forward(betas, pose, transl)`` in
-    the bed frame) with its bones (:func:`pressurepose.sim.tissue.body_bones`)."""
-    from pressurepose.sim.tissue import body_bones
-
+    the bed frame) with its bones (:func:`pressurepose.sim.tissue.bone_cores`, the bed's fractions)."""
     verts, _ = body.forward(betas, pose, transl)
-    bones = body_bones(body, betas, pose, transl)
-    return RestingBody(body_heightfield(verts[0], body.faces, bed, bones=bones), float(mass_kg), str(posture))
+    cores = bone_cores(body, betas, pose, transl)
+    field = body_heightfield(verts[0], body.faces, bed, bones=cores.bones(bed.tissue_bone_fraction))
+    return RestingBody(field, float(mass_kg), str(posture), cores, bed.tissue_bone_fraction)
 
 
 def resting_bodies(source, bed: BedSpec, per_posture: int = 4,
-                   postures: tuple[str, ...] = ("supine", "lateral")) -> list[RestingBody]:
-    """The first ``per_posture`` bodies of each posture group in a generated dataset (directory)
-    or a ``simulate`` .npz, as :class:`RestingBody` on ``bed``."""
+                   postures: tuple[str, ...] = ("supine", "lateral"), match: dict | None = None,
+                   seed: int = 0) -> list[RestingBody]:
+    """``per_posture`` bodies of each posture group in a generated dataset (directory) or a
+    ``simulate`` .npz, as :class:`RestingBody` on ``bed``: the first ones, or with ``match``
+    ({group: real extent ratios (M,)}, :func:`pressurepose.eval.realism.extent_ratio`) distinct
+    bodies drawn (seeded) so that their extent ratios follow the real ones', as
+    ``realism --match-extent`` compares like postures."""
     from pressurepose.body import BodyModel
     from pressurepose.data.schema import GENDERS
     from pressurepose.eval.posture import posture_of
 
+    fields = ("betas", "pose", "transl", "mass") + (("pressure", "height") if match else ())
     p = Path(source)
     if p.is_dir():
         from pressurepose.data.dataset import DatasetReader
 
-        a = DatasetReader(p).load_arrays(("betas", "pose", "transl", "mass"), label_dtype=np.float64)
+        a = DatasetReader(p).load_arrays(fields, label_dtype=np.float64)
         genders = np.array(GENDERS)[a["gender"]]
     elif p.is_file():
         try:
             with np.load(p, allow_pickle=False) as z:
-                a = {k: z[k] for k in ("betas", "pose", "transl", "mass", "gender")}
+                a = {k: z[k] for k in fields + ("gender",)}
         except (OSError, ValueError, KeyError) as exc:
-            raise BadInput(f"{p} is not a `pressurepose simulate` .npz with betas, pose, transl, mass, gender "
+            raise BadInput(f"{p} is not a `pressurepose simulate` .npz with {', '.join(fields)}, gender "
                            f"({exc})") from None
         genders = np.full(len(a["mass"]), str(a["gender"]))
     else:
         raise BadInput(f"settled bodies {str(p)!r} do not exist; expected a dataset directory or a simulate .npz")
     group = R.posture_group(posture_of(np.asarray(a["pose"], dtype=np.float64)))
+    if match:
+        pressure = np.asarray(a["pressure"], dtype=np.float64)
+        if pressure.shape[1:] != bed.mat.shape:
+            raise BadInput(f"{p} holds {pressure.shape[1]} x {pressure.shape[2]} images; the bed's mat "
+                           f"{bed.mat.name} is {bed.mat.rows} x {bed.mat.cols}")
+        ratio = R.extent_ratio(pressure, bed.mat, np.asarray(a["height"], dtype=np.float64).reshape(-1))
+    rng = np.random.default_rng(seed)
     models, out = {}, []
     for g in postures:
-        for i in np.flatnonzero(group == g)[:per_posture]:
+        members = np.flatnonzero(group == g)
+        if match and g in match and len(members):
+            pick, _ = R.match_by(ratio[members], match[g], seed)
+            members = members[list(dict.fromkeys(rng.permutation(pick).tolist()))]
+        for i in members[:per_posture]:
             body = models.setdefault(genders[i], BodyModel(genders[i]))
             out.append(resting_body(body, a["betas"][i], a["pose"][i], a["transl"][i], a["mass"][i], bed, g))
     if not out:
@@ -177,8 +205,20 @@ def people_loss(sim: dict, targets: PeopleTargets) -> float:
 
 
 def press_forces(bodies: list[RestingBody], bed: BedSpec) -> np.ndarray:
-    """(B, rows, cols) taxel forces (N) of every body re-pressed on ``bed``."""
-    return np.stack([press_heightfield(b.field, b.mass_kg, bed).force for b in bodies])
+    """(B, rows, cols) taxel forces (N) of every body re-pressed on ``bed`` (its bone fractions too)."""
+    return np.stack([press_heightfield(b.on(bed).field, b.mass_kg, bed).force for b in bodies])
+
+
+def pressable(bodies: list[RestingBody], bed: BedSpec) -> tuple[list[RestingBody], int]:
+    """(the bodies that ``bed`` re-presses, how many it does not)."""
+    keep = []
+    for b in bodies:
+        try:
+            press_heightfield(b.on(bed).field, b.mass_kg, bed)
+            keep.append(b)
+        except PressFailed:
+            pass
+    return keep, len(bodies) - len(keep)
 
 
 def simulated_stats(forces: np.ndarray, bodies: list[RestingBody], bed: BedSpec,
@@ -202,7 +242,7 @@ def calibrate_people(bodies: list[RestingBody], targets: PeopleTargets, bed: Bed
 
     def objective(params):
         trial = with_params(bed, params)
-        key = (trial.stiffness_n_m3, trial.coupling_n_m, trial.tissue_modulus_pa)
+        key = (trial.stiffness_n_m3, trial.coupling_n_m, trial.tissue_modulus_pa, trial.tissue_bone_fraction)
         if key not in cache:  # a new sensor alone needs no new press
             cache.clear()
             try:
@@ -228,7 +268,7 @@ def run_people_calibration(args) -> int:
 
     from pressurepose.eval.realism_report import load_real
     from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic
-    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.bed import bed_for
 
     if not args.real or not args.bodies:
         raise BadInput("--targets real needs --real (a real-data folder or a realism.json) and --bodies "
@@ -237,13 +277,27 @@ def run_people_calibration(args) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", suffixes=(".png",))
     t0 = time.perf_counter()
-    bed = get_bed(args.mat)
+    bed = bed_for(args.mat, getattr(args, "bed", None))
+    match = None
     if Path(args.real).is_file():
+        if args.match_extent:
+            raise BadInput("--match-extent needs the real images' statures: give --real a real-data folder, "
+                           "not a realism.json")
         targets = targets_from_report(args.real)
     else:
         real = load_real(args.real, bed.mat)
         targets = targets_from_images(real.pressure, real.posture, bed.mat, f"{args.real} ({real.name})")
-    bodies = resting_bodies(args.bodies, bed, args.per_posture, tuple(g for g in targets.groups))
+        if args.match_extent:
+            ratio = R.extent_ratio(real.pressure, bed.mat, real.height)
+            match = {g: ratio[real.posture == g] for g in targets.groups}
+    bodies = resting_bodies(args.bodies, bed, args.per_posture, tuple(g for g in targets.groups), match=match,
+                            seed=args.seed)
+    bodies, dropped = pressable(bodies, bed)
+    if dropped:
+        print(f"note: left out {dropped} bod{'y' if dropped == 1 else 'ies'} the re-press finds no equilibrium "
+              f"for on the starting bed (a tilted body's first-order press tips over)")
+    if not bodies:
+        raise BadInput(f"no body of {args.bodies} can be re-pressed on the starting bed")
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else DEFAULT_FIT
     if "threshold" in fit and bed.sensor_threshold_mmhg < R.DEFAULT_RULE.contact_mmhg:
         # below the contact level a threshold changes nothing measured: start where it starts to matter
@@ -266,6 +320,7 @@ def run_people_calibration(args) -> int:
         "evaluations": res.evaluations, "generations": res.generations,
         "stop": {k: str(v) for k, v in res.stop.items()}, "popsize": args.popsize or 10, "seed": args.seed,
         "source": {"targets": targets.source, "bodies": str(Path(args.bodies).resolve()),
+                   "bodies_matched_by_extent": bool(match),
                    "bodies_per_posture": {g: sum(b.posture == g for b in bodies) for g in targets.groups}},
         "targets": {g: t.__dict__ for g, t in targets.groups.items()},
         "simulated_after": {g: t.__dict__ for g, t in final.items()},

@@ -19,7 +19,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
         "(c0, c1, c2) with CMA-ES. With --data, to measured capsule objects (pressure images and sink depths, "
         "format in docs/calibration.md) by the paper's loss L_F + L_C + L_Q; with --targets default, to the "
         "documented sink depth and peak pressure of an average body (needs a body model). Writes the fitted "
-        "bed as JSON (load it with pressurepose.sim.calibrate.load_fitted_bed).")
+        "bed as JSON (load it with pressurepose.sim.bed.load_bed).")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--data", help="calibration measurements (.npz, see docs/calibration.md)")
     src.add_argument("--targets", choices=["default", "real"],
@@ -29,13 +29,19 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bodies",
                    help="--targets real: settled bodies to re-press (dataset directory or simulate .npz)")
     p.add_argument("--per-posture", type=int, default=4, help="--targets real: bodies per posture group [4]")
-    p.add_argument("--mat", default="boditrak_bt3510",
+    p.add_argument("--match-extent", action="store_true",
+                   help="--targets real: draw the bodies so that how long they lie (contact extent over stature) "
+                        "follows the real images' (as `realism --match-extent`); the first ones otherwise")
+    p.add_argument("--bed", default=None, metavar="JSON",
+                   help="--targets real: the bed to start from and the bodies' bed (a calibrate --out file) "
+                        "[the mat preset's default bed]")
+    p.add_argument("--mat", default=None,
                    help="mat preset for --targets (boditrak_bt3510, slp, tip) [boditrak_bt3510]; --data uses its own mat")
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
                    help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
-                        "threshold [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                        "threshold and (--targets real) bone_pelvis, bone_spine, ... bone_hand [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
                         "stiffness,tissue,threshold for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
@@ -47,7 +53,7 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_calibrate(args) -> int:
     from pressurepose.sim import calibrate as cal
-    from pressurepose.sim.bed import BedSpec, get_bed
+    from pressurepose.sim.bed import DEFAULT_MAT, BedSpec, get_bed
     from pressurepose.errors import BadInput
     from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic, write_json_atomic
     from pressurepose.sim.calibration_data import load_measurements
@@ -64,6 +70,12 @@ def run_calibrate(args) -> int:
     args.popsize = 50 if args.popsize is None else args.popsize
     args.max_evals = 5000 if args.max_evals is None else args.max_evals
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
+    if args.bed or args.match_extent:
+        raise BadInput("--bed and --match-extent are options of --targets real")
+    bones = [n for n in fit or () if n in cal.BONE_PARAMETERS]
+    if bones:
+        raise BadInput(f"--fit {','.join(bones)}: bone fractions shape the tissue of people, so they are fitted "
+                       f"with --targets real only")
     t0 = time.perf_counter()
 
     def progress(gen, evals, best):
@@ -79,7 +91,7 @@ def run_calibrate(args) -> int:
     else:
         from pressurepose.body import BodyModel
 
-        bed = get_bed(args.mat)
+        bed = get_bed(args.mat or DEFAULT_MAT)
         body = BodyModel(args.body)
         verts, faces, _ = cal.supine_body_mesh(body, bed)
         res = cal.calibrate_targets(verts, faces, cal.DEFAULT_TARGETS, bed, fit=fit or ("stiffness", "spread"),
@@ -171,7 +183,10 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
     add_body_arguments(p)
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed [0]")
-    p.add_argument("--mat", default="boditrak_bt3510", help="mat preset [boditrak_bt3510]")
+    p.add_argument("--mat", default=None, help="mat preset [boditrak_bt3510, or the --bed file's]")
+    p.add_argument("--bed", default=None, metavar="JSON",
+                   help="the bed to lie on: a `pressurepose calibrate --out` file or a BedSpec.to_dict record "
+                        "[the mat preset's default bed]")
     p.add_argument("--out", required=True, help="output .npz: pressure, force, depth, contact, betas, pose, "
                                                 "transl, joints, mass, height, and rejection counts")
     p.add_argument("--plot", default=None, help="PNG: each pressure image beside the body at rest, seen from the side")
@@ -234,7 +249,7 @@ def run_simulate(args) -> int:
     from pressurepose.pose.commands import body_settings
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
-    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.bed import bed_for
     from pressurepose.sim.simulate import simulate_one
 
     out = check_output_path(args.out, "--out", suffixes=(".npz",))
@@ -245,12 +260,12 @@ def run_simulate(args) -> int:
                        f"(use `generate` for datasets)")
     partition = get_partition(args.partition).name
     gender = canonical_gender(args.gender)[0]
-    body, bed = BodyModel(gender), get_bed(args.mat)
+    body, bed = BodyModel(gender), bed_for(args.mat, args.bed)
     sampler = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
     # everything but the outputs and the count decides the bodies: a partial file of another command is refused
     run_key = json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_")
-                             and k not in ("out", "plot", "count")}, "partition": partition, "gender": gender},
-                         sort_keys=True, default=str)
+                             and k not in ("out", "plot", "count", "mat", "bed")}, "partition": partition,
+                          "gender": gender, "bed": bed.to_dict()}, sort_keys=True, default=str)
     partial = out.with_name(f"{out.stem}.partial.npz")
     done, rejected = _resume(partial, run_key, args.count)
     if done:

@@ -193,15 +193,20 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
     down = tris[normal_z * np.sign(volume) < 0]
     grid = press_grid(bed)
     bottom = lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape, floor=-bed.mattress_thickness_m)
-    tissue = None
-    if bones is not None:
-        if not isinstance(bones, Bones):
-            raise BadInput(f"bones is {type(bones).__name__}; expected a pressurepose.sim.tissue.Bones")
-        tissue = np.zeros(grid.shape)
-        jj, ii = np.nonzero(np.isfinite(bottom))
-        xs, ys = grid.centers()
-        tissue[jj, ii] = tissue_depth(np.stack([xs[ii], ys[jj], bottom[jj, ii]], axis=1), bones)
-    return Heightfield(bottom, com, grid, tissue)
+    return with_tissue(Heightfield(bottom, com, grid), bones)
+
+
+def with_tissue(hf: Heightfield, bones: Bones | None) -> Heightfield:
+    """``hf`` with the tissue over ``bones`` (None: a rigid body), e.g. the same surface over other bones."""
+    if bones is None:
+        return dataclasses.replace(hf, tissue=None)
+    if not isinstance(bones, Bones):
+        raise BadInput(f"bones is {type(bones).__name__}; expected a pressurepose.sim.tissue.Bones")
+    tissue = np.zeros(hf.grid.shape)
+    jj, ii = np.nonzero(np.isfinite(hf.bottom))
+    xs, ys = hf.grid.centers()
+    tissue[jj, ii] = tissue_depth(np.stack([xs[ii], ys[jj], hf.bottom[jj, ii]], axis=1), bones)
+    return dataclasses.replace(hf, tissue=tissue)
 
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,

@@ -127,7 +127,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
             mass, com_xy = relieved_body(rest.mass_kg, mesh_centroid(verts[0], body.faces)[1][:2], points,
                                          rest.wedge_force_z)
         image = press(verts[0], body.faces, mass, press_bed, com_xy=com_xy,
-                      bones=body_bones(body, rest.betas, pose, transl))
+                      bones=body_bones(body, rest.betas, pose, transl, press_bed.tissue_bone_fraction))
         if wedge is not None:
             image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
     except PressFailed:

@@ -7,8 +7,9 @@ compliance a cell adds is ``t / (E A)`` (m/N), and a stack of tissue and Winkler
 spring ``1 / (1 / (k_A A) + t / (E A))``.
 
 Tissue depth comes from the body itself: the bone of each of the 20 ragdoll capsules
-(:mod:`pressurepose.body.capsules`) is a core of radius ``BONE_FRACTION[k]`` times the capsule's
-radius *of the mean body of the same stature* (a skeleton scales with height, not with weight),
+(:mod:`pressurepose.body.capsules`) is a core of radius ``f`` times the capsule's
+radius *of the mean body of the same stature*, ``f`` the fraction of its body part
+(``BedSpec.tissue_bone_fraction``, :data:`CAPSULE_PART`) (a skeleton scales with height, not with weight),
 around the capsule's axis; a surface point's tissue depth is its distance to the nearest bone,
 clipped to ``[TISSUE_MIN_M, TISSUE_MAX_M]``. A heavier body has wider capsules over the same bone,
 so thicker tissue; where the mesh bulges past its capsule (the buttocks) the tissue is thicker
@@ -23,7 +24,7 @@ thick), 4-5 cm of buttock over the pelvis (0.6; the sacrum, again too thick), 1.
 pad (feet 0.6), 5-6 cm of muscle under a thigh
 (femur near the axis: 0.25), 3-4 cm under a calf (0.35), 2-3 cm under the upper arm (0.45) and
 1-2 cm at the forearm and hand (0.55, 0.6). They are constants to calibrate, not measurements of
-this mesh.
+this mesh (``pressurepose calibrate --targets real --fit bone_pelvis,...``; docs/calibration.md).
 """
 
 from __future__ import annotations
@@ -35,15 +36,17 @@ import numpy as np
 
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, point_capsule_distance, posed_capsules
 from pressurepose.errors import BadInput
+from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION, _bone_fractions
 
-BONE_FRACTION: dict[str, float] = {
-    "pelvis": 0.6, "spine": 0.7, "spine1": 0.7, "spine2": 0.7, "left_shoulder": 0.85, "right_shoulder": 0.85,
-    "neck": 0.6, "head": 0.93,
-    "left_thigh": 0.25, "right_thigh": 0.25, "left_calf": 0.35, "right_calf": 0.35,
-    "left_foot": 0.6, "right_foot": 0.6,
-    "left_upper_arm": 0.45, "right_upper_arm": 0.45, "left_forearm": 0.55, "right_forearm": 0.55,
-    "left_hand": 0.6, "right_hand": 0.6,
+# the body part (pressurepose.sim.bed.BONE_PARTS) whose bone fraction each capsule takes
+CAPSULE_PART: dict[str, str] = {
+    "pelvis": "pelvis", "spine": "spine", "spine1": "spine", "spine2": "spine",
+    "left_shoulder": "shoulder", "right_shoulder": "shoulder", "neck": "neck", "head": "head",
+    "left_thigh": "thigh", "right_thigh": "thigh", "left_calf": "calf", "right_calf": "calf",
+    "left_foot": "foot", "right_foot": "foot", "left_upper_arm": "upper_arm", "right_upper_arm": "upper_arm",
+    "left_forearm": "forearm", "right_forearm": "forearm", "left_hand": "hand", "right_hand": "hand",
 }
+_PART_OF_CAPSULE = np.array([BONE_PARTS.index(CAPSULE_PART[n]) for n in CAPSULE_NAMES])
 TISSUE_MIN_M = 0.003   # skin
 TISSUE_MAX_M = 0.15
 
@@ -85,13 +88,33 @@ def _mean_radii(body) -> tuple[np.ndarray, float]:
     return capsules_for(body, zero).radius.copy(), float(body.height(zero)[0])
 
 
-def body_bones(body, betas, pose, transl) -> Bones:
-    """The bones of a posed body (betas (S,), pose (72,), transl (3,), as ``BodyModel.forward``)."""
+@dataclass(frozen=True, eq=False)
+class BoneCores:
+    """A posed body's capsule axes ``ends`` (20, 2, 3) m, the mean body's capsule radii ``mean_radius``
+    (20,) m and the body's stature over the mean body's ``scale``: its bones before the fractions."""
+
+    ends: np.ndarray
+    mean_radius: np.ndarray
+    scale: float
+
+    def bones(self, fraction=TISSUE_BONE_FRACTION) -> Bones:
+        """The bones with each capsule's part's fraction (``fraction``: a ``BedSpec.tissue_bone_fraction``,
+        a tuple in BONE_PARTS order or a dict of some parts)."""
+        frac = np.asarray(_bone_fractions(fraction))[_PART_OF_CAPSULE]
+        return Bones(self.ends, frac * self.mean_radius * self.scale)
+
+
+def bone_cores(body, betas, pose, transl) -> BoneCores:
+    """The :class:`BoneCores` of a posed body (betas (S,), pose (72,), transl (3,), as ``BodyModel.forward``)."""
     betas = np.asarray(betas, dtype=np.float64)
     caps = capsules_for(body, betas)
     ends, _ = posed_capsules(body, caps, betas, np.asarray(pose, dtype=np.float64)[None],
                              np.asarray(transl, dtype=np.float64)[None])
     mean_r, mean_h = _mean_radii(body)
-    frac = np.array([BONE_FRACTION[n] for n in CAPSULE_NAMES])
-    stature = float(body.height(betas)[0]) / mean_h
-    return Bones(ends[0], frac * mean_r * stature)
+    return BoneCores(ends[0], mean_r, float(body.height(betas)[0]) / mean_h)
+
+
+def body_bones(body, betas, pose, transl, fraction=TISSUE_BONE_FRACTION) -> Bones:
+    """The bones of a posed body (betas (S,), pose (72,), transl (3,), as ``BodyModel.forward``) with
+    the bone fractions ``fraction`` (a bed's ``tissue_bone_fraction``)."""
+    return bone_cores(body, betas, pose, transl).bones(fraction)

@@ -124,3 +124,42 @@ def test_record_round_trip_and_bad_records():
         BedSpec.from_dict({"mat": {"name": "x"}})
     with pytest.raises(BadInput):
         BedSpec.from_dict([1, 2])
+
+
+def test_bone_fractions_by_part():
+    """A dict names some parts (the rest keep their defaults); records keep them by name; a record
+    written before the field existed reads back with the defaults."""
+    from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION
+
+    bed = get_bed(tissue_bone_fraction={"pelvis": 0.8, "calf": 0.2})
+    f = dict(zip(BONE_PARTS, bed.tissue_bone_fraction))
+    assert f["pelvis"] == 0.8 and f["calf"] == 0.2 and f["head"] == TISSUE_BONE_FRACTION[BONE_PARTS.index("head")]
+    d = bed.to_dict()
+    assert d["tissue_bone_fraction"]["pelvis"] == 0.8
+    assert BedSpec.from_dict(d) == bed
+    del d["tissue_bone_fraction"]
+    assert BedSpec.from_dict(d).tissue_bone_fraction == TISSUE_BONE_FRACTION
+    for bad, match in [({"femur": 0.5}, "unknown parts"), ({"pelvis": 0.0}, r"\(0, 1\]"), ((0.5,) * 3, "11"),
+                       ({"pelvis": float("nan")}, "pelvis"), (5, "expected 11")]:
+        with pytest.raises(BadInput, match=match):
+            get_bed(tissue_bone_fraction=bad)
+
+
+def test_a_bed_file_and_the_mat(tmp_path):
+    import json
+
+    from pressurepose.sim.bed import bed_for, load_bed
+
+    bed = get_bed("tip", stiffness_n_m3=2e5)
+    (tmp_path / "fit.json").write_text(json.dumps({"bed": bed.to_dict(), "loss": 0.1}))
+    (tmp_path / "bare.json").write_text(json.dumps(bed.to_dict()))
+    (tmp_path / "other.json").write_text(json.dumps({"loss": 1}))
+    assert load_bed(tmp_path / "fit.json") == bed == load_bed(tmp_path / "bare.json")
+    assert bed_for("tip", tmp_path / "fit.json") == bed == bed_for(None, tmp_path / "fit.json")
+    assert bed_for(None, None) == get_bed() and bed_for("slp", None) == get_bed("slp")
+    with pytest.raises(BadInput, match="carries the tip mat"):
+        bed_for("boditrak_bt3510", tmp_path / "fit.json")
+    with pytest.raises(BadInput, match="no bed record"):
+        load_bed(tmp_path / "other.json")
+    with pytest.raises(BadInput, match="does not exist"):
+        load_bed(tmp_path / "none.json")

@@ -9,8 +9,9 @@ import trimesh
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.sim import GRAVITY, get_bed, press
+from pressurepose.sim.bed import load_bed
 from pressurepose.sim.calibrate import (PhysicalTargets, bed_params, calibrate, calibrate_targets,
-                                        calibration_loss, capsule_mesh, fit_settle_stiffness, load_fitted_bed,
+                                        calibration_loss, capsule_mesh, fit_settle_stiffness,
                                         loss_terms, measurement_heightfields, minimize_cma, readings, simulate,
                                         stiffness_from_penetration, with_params)
 from pressurepose.sim.calibration_data import CapsuleMeasurements, load_measurements, save_measurements
@@ -191,14 +192,14 @@ def test_calibrate_verb_writes_a_loadable_bed(tmp_path, capsys):
     assert code == 0 and plot.stat().st_size > 1000
     record = json.loads(out.read_text())
     assert record["evaluations"] >= 12 and record["source"]["objects"] == 4
-    bed = load_fitted_bed(out)
+    bed = load_bed(out)
     assert bed.stiffness_n_m3 == pytest.approx(record["fitted"]["stiffness"])
     assert bed.mat == data.mat
     assert "wrote" in capsys.readouterr().out
     assert main(["calibrate", "--data", str(tmp_path / "none.npz")]) == 2
     (tmp_path / "junk.json").write_text("{")
     with pytest.raises(BadInput, match="JSON"):
-        load_fitted_bed(tmp_path / "junk.json")
+        load_bed(tmp_path / "junk.json")
 
 
 def test_total_force_of_calibration_objects_is_their_weight():
@@ -243,4 +244,4 @@ def test_calibrate_verb_with_default_targets_runs(tmp_path):
     assert code == 0
     record = json.loads(out.read_text())
     assert record["source"]["targets"]["max_sink_m"] == 0.065 and record["evaluations"] >= 4
-    assert load_fitted_bed(out).mat == get_bed().mat
+    assert load_bed(out).mat == get_bed().mat

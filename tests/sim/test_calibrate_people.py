@@ -92,3 +92,57 @@ def test_verb_needs_real_and_bodies(tmp_path):
     assert main(["calibrate", "--targets", "real", "--out", str(tmp_path / "b.json")]) == 2
     assert main(["calibrate", "--targets", "real", "--real", str(tmp_path), "--bodies", str(tmp_path / "none"),
                  "--out", str(tmp_path / "b.json")]) == 2
+
+
+def test_a_hidden_bone_fraction_recovered(bodies):
+    """Targets pressed with a thinner buttock (pelvis bone 0.85 of its capsule) pull a fit that starts
+    at the default fraction back to it: the fit re-computes each body's tissue for every candidate."""
+    truth = with_params(FAST_BED, {"bone_pelvis": 0.85})
+    targets = targets_of(bodies, truth)
+    start = C.people_loss(C.simulated_stats(C.press_forces(bodies, FAST_BED), bodies, FAST_BED), targets)
+    res = C.calibrate_people(bodies, targets, FAST_BED, fit=("bone_pelvis", "tissue"), popsize=8, seed=2,
+                             max_evals=120, tolfun=1e-6)
+    assert start > 0.01
+    assert res.loss < 0.1 * start
+    assert res.fitted["bone_pelvis"] == pytest.approx(0.85, abs=0.06)
+    assert res.fitted["tissue"] == pytest.approx(FAST_BED.tissue_modulus_pa, rel=0.15)
+    assert res.bed.tissue_bone_fraction[1:] == FAST_BED.tissue_bone_fraction[1:]  # only the pelvis moved
+
+
+def test_resting_body_on_another_bed_takes_its_bone_fractions(bodies):
+    b = bodies[0]
+    assert b.on(FAST_BED) is b
+    thin = with_params(FAST_BED, {"bone_thigh": 0.9})
+    moved = b.on(thin)
+    assert moved.fraction == thin.tissue_bone_fraction
+    assert np.nanmax(moved.field.tissue) <= np.nanmax(b.field.tissue) + 1e-12
+    assert (moved.field.tissue < b.field.tissue - 1e-4).any()  # thicker bone, thinner tissue over it
+    assert np.array_equal(moved.field.bottom, b.field.bottom)
+
+
+def test_bodies_matched_by_extent(tmp_path):
+    """With real extent ratios to follow, the bodies drawn lie as long as the real ones: real images
+    as short as the shortest of three simulated bodies draw that body first."""
+    from pressurepose.cli import main
+
+    out = tmp_path / "sim.npz"
+    assert main(["simulate", "--partition", "general_supine", "--gender", "f", "--count", "3", "--seed", "1",
+                 "--out", str(out)]) == 0
+    with np.load(out) as z:
+        a = {k: z[k] for k in ("pressure", "height", "betas", "pose", "transl")}
+    ratio = R.extent_ratio(a["pressure"].astype(float), FAST_BED.mat, a["height"])
+    short = int(np.argmin(ratio))
+    assert np.sort(ratio)[1] > ratio[short] + 0.1  # the three lie differently long
+    matched = C.resting_bodies(out, get_bed(), per_posture=1, postures=("supine",),
+                               match={"supine": np.full(5, ratio[short])})
+    expect = C.bone_cores(BodyModel("f"), a["betas"][short], a["pose"][short], a["transl"][short])
+    assert len(matched) == 1 and np.allclose(matched[0].cores.ends, expect.ends)
+    with pytest.raises(BadInput, match="27"):
+        C.resting_bodies(out, get_bed("slp"), per_posture=1, match={"supine": np.ones(3)})
+
+
+def test_bone_fractions_are_fitted_against_people_only(tmp_path):
+    from pressurepose.cli import main
+
+    assert main(["calibrate", "--targets", "default", "--fit", "stiffness,bone_pelvis",
+                 "--out", str(tmp_path / "b.json")]) == 2

@@ -172,3 +172,29 @@ def test_a_body_with_tissue_balances_exactly_and_spreads_its_contact():
     np.testing.assert_allclose(cop, soft.com[:2], atol=0.0286 / 2)
     assert (soft.pressure > 5).sum() > (rigid.pressure > 5).sum()
     assert soft.pressure.max() <= rigid.pressure.max()
+    # a thicker pelvic bone (less buttock over it) puts more of the weight under the pelvis
+    bony = press(v, f, 62.5, bed, bones=body_bones(body, np.zeros(body.num_betas), pose, np.zeros(3),
+                                                    {"pelvis": 0.95}).moved(motion))
+    pelvis_y = joints[JOINT_NAMES.index("pelvis")][1]
+    band = np.abs(centres[..., 1] - pelvis_y) < 0.1
+    assert bony.bed_force.sum() == pytest.approx(weight, rel=1e-9)
+    assert bony.bed_force[band].sum() > soft.bed_force[band].sum() * 1.05
+
+
+def test_bone_fractions_scale_each_parts_capsules():
+    from pressurepose.body import BodyModel
+    from pressurepose.body.capsules import CAPSULE_NAMES
+    from pressurepose.sim.bed import TISSUE_BONE_FRACTION
+    from pressurepose.sim.tissue import CAPSULE_PART, bone_cores
+
+    if not asset_path("male.npz").is_file():
+        pytest.skip("the shipped male body model is not baked")
+    body = BodyModel("male")
+    cores = bone_cores(body, np.full(body.num_betas, 0.5), np.zeros(72), np.zeros(3))
+    default, thin = cores.bones(), cores.bones({"thigh": 0.1})
+    for k, name in enumerate(CAPSULE_NAMES):
+        same = CAPSULE_PART[name] != "thigh"
+        assert (thin.radius[k] == default.radius[k]) == same
+    k = CAPSULE_NAMES.index("left_thigh")
+    assert thin.radius[k] == pytest.approx(default.radius[k] * 0.1 / TISSUE_BONE_FRACTION[5])
+    assert set(CAPSULE_PART) == set(CAPSULE_NAMES)
