@@ -89,3 +89,21 @@ def test_no_limb_hangs_over_the_edge_unless_asked(tmp_path, capsys):
                  "--out", str(tmp_path / "p.npz")]) == 0
     j = np.load(tmp_path / "p.npz")["joints"][:, list(LIMB_JOINTS)]
     assert np.any((j[..., 0] < x0) | (j[..., 0] > x1))  # the paper's sampler lets limbs start beyond the sides
+
+
+def test_simulate_on_a_bed_file(tmp_path, capsys):
+    """`simulate --bed FILE`: the body is pressed on that bed (here: every bone as thick as its capsule,
+    so the tissue is as thin as it gets, and the imprint shrinks); a --mat that is not the bed's is refused."""
+    import json
+
+    from pressurepose.sim.bed import BONE_PARTS, get_bed
+
+    (tmp_path / "bed.json").write_text(json.dumps(get_bed(tissue_bone_fraction=(1.0,) * len(BONE_PARTS)).to_dict()))
+    common = ["simulate", "--partition", "supine_straight_limbs", "--gender", "f", "--count", "1", "--seed", "4"]
+    assert main(common + ["--out", str(tmp_path / "a.npz")]) == 0
+    assert main(common + ["--out", str(tmp_path / "b.npz"), "--bed", str(tmp_path / "bed.json")]) == 0
+    a, b = np.load(tmp_path / "a.npz"), np.load(tmp_path / "b.npz")
+    np.testing.assert_array_equal(a["betas"], b["betas"])
+    np.testing.assert_array_equal(a["pose"][:, 3:], b["pose"][:, 3:])  # the press only moves the body rigidly
+    assert (b["pressure"] > 5).sum() < (a["pressure"] > 5).sum()
+    assert main(common + ["--out", str(tmp_path / "c.npz"), "--bed", str(tmp_path / "bed.json"), "--mat", "tip"]) == 2
