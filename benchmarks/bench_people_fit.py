@@ -132,7 +132,7 @@ def main(argv=None) -> None:
                      f"{r['head_sim']:.2f} | {shares} | {r['share_worst_pp']:.1f} |")
     fitted = {k: v for k, v in rec["fitted"].items() if rec["constants_from"][k].startswith("CMA-ES")}
     lines += ["", "Fitted constants (start: the default bed): " + ", ".join(
-        f"{k} {v:.3g}" for k, v in fitted.items()) + f". The fitted bed: `{bed}` (`generate --bed`).\n"]
+        f"{k} {v:.3g}" for k, v in fitted.items()) + ". The fitted bed: `OUT/bed_people.json` (`generate --bed`).\n"]
     body = "\n".join(lines) + "\n"
     print(body)
     if not args.no_write:
