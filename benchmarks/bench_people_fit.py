@@ -90,6 +90,7 @@ def main(argv=None) -> None:
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
 
+    from pressurepose.eval.commands import format_worst_gap
     from pressurepose.eval.realism import REGIONS
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -121,15 +122,16 @@ def main(argv=None) -> None:
              f"fitted {', '.join(f'`{k}`' for k in rec['fitted'] if rec['constants_from'][k].startswith('CMA-ES'))} "
              f"({rec['evaluations']} evaluations, {rec['seconds']:.0f} s; loss {rec['start_loss']:.3f} -> "
              f"{rec['loss']:.3f}, 1 = every term at its goal on average). Region shares compare like postures "
-             f"(`realism --match-extent`); goals: area ratio 0.8-1.2, head imprint >= 0.8, every region within 5 pp.\n",
+             f"(`realism --match-extent`); goals: area ratio 0.8-1.2, head imprint >= 0.8, every region within 5 pp. The interval resamples "
+             f"the real images by person and the simulated ones by image (`realism.share_gap_interval`).\n",
              "| real images | bed | posture | images real / sim | contact taxels real / sim (ratio) | head imprint real "
-             "/ sim | " + " | ".join(f"{k} %" for k in REGIONS) + " | worst share gap (pp) |",
+             "/ sim | " + " | ".join(f"{k} %" for k in REGIONS) + " | worst share gap (pp; 90 % interval) |",
              "|---" * (7 + len(REGIONS)) + "|"]
     for who, label, r in rows:
         shares = " | ".join(f"{100 * r['share_real'][k]:.1f} / {100 * r['share_sim'][k]:.1f}" for k in REGIONS)
         lines.append(f"| {who} | {bed_name[label]} | {r['posture']} | {r['n_real']} / {r['n_sim']} | "
                      f"{r['area_real']:.0f} / {r['area_sim']:.0f} ({r['area_ratio']:.2f}) | {r['head_real']:.2f} / "
-                     f"{r['head_sim']:.2f} | {shares} | {r['share_worst_pp']:.1f} |")
+                     f"{r['head_sim']:.2f} | {shares} | {format_worst_gap(r)} |")
     fitted = {k: v for k, v in rec["fitted"].items() if rec["constants_from"][k].startswith("CMA-ES")}
     lines += ["", "Fitted constants (start: the default bed): " + ", ".join(
         f"{k} {v:.3g}" for k, v in fitted.items()) + ". The fitted bed: `OUT/bed_people.json` (`generate --bed`).\n"]

@@ -205,6 +205,12 @@ def run_realism(args) -> int:
     return 0
 
 
+def format_worst_gap(row: dict) -> str:
+    """'4.4 (2.9-6.8)': the worst region's share gap with its bootstrap interval where there is one."""
+    ci = row.get("share_worst_pp_interval")
+    return f"{row['share_worst_pp']:.1f}" + (f" ({ci[0]:.1f}-{ci[1]:.1f})" if ci else "")
+
+
 def format_realism(rows: list[dict]) -> str:
     """A Markdown table of :func:`pressurepose.eval.realism_report.headline` rows."""
     from pressurepose.eval.realism import REGIONS
@@ -212,7 +218,7 @@ def format_realism(rows: list[dict]) -> str:
     f = lambda v, fmt: "-" if v is None else fmt.format(v)  # noqa: E731
     lines = ["| posture | images real / sim | contact taxels real / sim (ratio) | head imprint real / sim | "
              "mean mmHg real / sim | peak mmHg real / sim | load off mat (sim) | "
-             + " | ".join(f"{r} % real / sim" for r in REGIONS) + " | worst share gap (pp) |",
+             + " | ".join(f"{r} % real / sim" for r in REGIONS) + " | worst share gap (pp; 90 % interval) |",
              "|---" * (8 + len(REGIONS)) + "|"]
     for r in rows:
         shares = " | ".join(f"{100 * r['share_real'][k]:.1f} / {100 * r['share_sim'][k]:.1f}" for k in REGIONS)
@@ -220,5 +226,5 @@ def format_realism(rows: list[dict]) -> str:
             f"| {r['posture']} | {r['n_real']} / {r['n_sim']} | {r['area_real']:.0f} / {r['area_sim']:.0f} "
             f"({r['area_ratio']:.2f}) | {r['head_real']:.2f} / {r['head_sim']:.2f} | {r['mean_real']:.1f} / "
             f"{r['mean_sim']:.1f} | {r['peak_real']:.1f} / {r['peak_sim']:.1f} | {f(r['off_mat_sim'], '{:.3f}')} | "
-            f"{shares} | {r['share_worst_pp']:.1f} |")
+            f"{shares} | {format_worst_gap(r)} |")
     return "\n".join(lines)

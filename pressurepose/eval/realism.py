@@ -334,6 +334,44 @@ def compare(sim: dict, real: dict) -> dict:
     return out
 
 
+def share_gap_interval(sim_shares, real_shares, real_cluster=None, sim_weight=None, n_boot: int = 1000,
+                       level: float = 0.9, seed: int = 0) -> dict:
+    """Bootstrap intervals of the simulated-minus-real mean region shares, percentage points.
+
+    sim_shares (n, R) and real_shares (m, R): per-image shares (NaN rows, images without contact,
+    are left out). ``real_cluster`` (m,): images of one person move together (a person's postures
+    are not independent draws), else each image is its own; ``sim_weight`` (n,): how often each
+    simulated image counts (a matched resample's multiplicities), resampled as distinct images.
+    Returns {'regions': (R, 2) [low, high] of each region's gap, 'worst': [low, high] of the largest
+    absolute gap, 'level', 'n_boot', 'by': 'cluster' | 'image'}; percentile intervals, seeded."""
+    s, r = np.asarray(sim_shares, float), np.asarray(real_shares, float)
+    if s.ndim != 2 or r.ndim != 2 or s.shape[1] != r.shape[1]:
+        raise BadInput(f"shares of shape {s.shape} and {r.shape}; expected (n, R) and (m, R)")
+    w = np.ones(len(s)) if sim_weight is None else np.asarray(sim_weight, float).reshape(-1)
+    c = np.arange(len(r)) if real_cluster is None else np.unique(np.asarray(real_cluster).astype(str),
+                                                                  return_inverse=True)[1].reshape(-1)
+    if w.shape != (len(s),) or c.shape != (len(r),) or not 0 < level < 1 or n_boot < 10:
+        raise BadInput("sim_weight must have one weight per simulated image, real_cluster one label per real "
+                       "image, level lie in (0, 1) and n_boot be at least 10")
+    ks, kr = np.all(np.isfinite(s), 1) & (w > 0), np.all(np.isfinite(r), 1)
+    s, w, r, c = s[ks], w[ks], r[kr], c[kr]
+    if not len(s) or not len(r):
+        raise BadInput("no simulated or no real image with contact to compare shares of")
+    clusters = np.unique(c)
+    members = [np.flatnonzero(c == k) for k in clusters]
+    rng = np.random.default_rng(seed)
+    gaps = np.empty((n_boot, s.shape[1]))
+    for b in range(n_boot):
+        i = rng.integers(0, len(s), len(s))
+        sim_mean = (w[i] @ s[i]) / w[i].sum()
+        j = np.concatenate([members[k] for k in rng.integers(0, len(members), len(members))])
+        gaps[b] = 100 * (sim_mean - r[j].mean(0))
+    q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
+    return {"regions": np.percentile(gaps, q, axis=0).T.tolist(),
+            "worst": np.percentile(np.abs(gaps).max(1), q).tolist(), "level": level, "n_boot": n_boot,
+            "by": "cluster" if real_cluster is not None else "image"}
+
+
 def posture_group(labels) -> np.ndarray:
     """(N,) 'supine', 'lateral', 'prone' or '' (not compared) of posture labels (supine, left,
     right, lateral, prone, others)."""

@@ -27,8 +27,9 @@ from pressurepose.sim.bed import MATS, MatSpec, get_mat
 @dataclass(frozen=True, eq=False)
 class ImageSet:
     """N pressure images (N, rows, cols) mmHg on ``mat`` with their posture group (N,) str, for
-    simulated images taxel forces (N, rows, cols) N and body masses (N,) kg (else None), and the
-    people's statures (N,) m where known (for :func:`realism_report`'s ``match``)."""
+    simulated images taxel forces (N, rows, cols) N and body masses (N,) kg (else None), the
+    people's statures (N,) m where known (for :func:`realism_report`'s ``match``), and for real
+    images who each one is (N,) str where known (their region shares are resampled by person)."""
 
     name: str
     pressure: np.ndarray
@@ -37,6 +38,7 @@ class ImageSet:
     force: np.ndarray | None = None
     mass: np.ndarray | None = None
     height: np.ndarray | None = None
+    subject: np.ndarray | None = None
 
     def stats(self, rule: R.RegionRule = R.DEFAULT_RULE) -> dict:
         return R.image_stats(self.pressure, self.mat, rule, force_n=self.force, mass_kg=self.mass)
@@ -61,7 +63,7 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
     r = real.select(keep)
     x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
     return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat,
-                    height=np.asarray(r.height_m, dtype=np.float64))
+                    height=np.asarray(r.height_m, dtype=np.float64), subject=np.asarray(r.subject, dtype=str))
 
 
 def _mat_for_shape(shape, mat_name: str | None) -> MatSpec:
@@ -141,14 +143,23 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
     for g in groups:
         r, s = R.select(rs, real.posture == g), R.select(ss, sim.posture == g)
         entry = {}
+        rsel, ssel = np.flatnonzero(real.posture == g), np.flatnonzero(sim.posture == g)
+        weight = np.ones(len(ssel))
         if match:
-            rsel, ssel = np.flatnonzero(real.posture == g), np.flatnonzero(sim.posture == g)
             pick, coverage = R.match_by(s_ratio[ssel], r_ratio[rsel], seed)
             entry["match"] = {"coverage": coverage, "extent_ratio_real": _median(r_ratio[rsel]),
                               "extent_ratio_sim_before": _median(s_ratio[ssel]),
                               "extent_ratio_sim": _median(s_ratio[ssel][pick]),
                               "distinct_sim_images": int(len(np.unique(pick)))}
             s = R.select(ss, ssel[pick])
+            weight = np.bincount(pick, minlength=len(ssel)).astype(float)
+        shares = lambda st, idx: np.stack([st[f"share_{k}"][idx] for k in R.REGIONS], 1)  # noqa: E731
+        try:
+            entry["share_interval"] = R.share_gap_interval(
+                shares(ss, ssel), shares(rs, rsel), None if real.subject is None else real.subject[rsel], weight,
+                seed=seed)
+        except BadInput:  # no image with contact on one side: no interval
+            pass
         out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
                               **entry}
     return out
@@ -176,6 +187,7 @@ def headline(report: dict) -> list[dict]:
             "share_real": {k: r[f"share_{k}"]["mean"] for k in R.REGIONS},
             "share_sim": {k: s[f"share_{k}"]["mean"] for k in R.REGIONS},
             "share_worst_pp": max(abs(d["distance"][f"share_{k}"]["mean_diff_pp"]) for k in R.REGIONS),
+            "share_worst_pp_interval": d.get("share_interval", {}).get("worst"),
             "off_mat_sim": s.get("off_mat", {}).get("median"),
         })
     return rows

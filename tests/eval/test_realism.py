@@ -192,3 +192,35 @@ def test_extent_ratio_is_extent_over_stature():
     assert np.isclose(ratio[0], (ext[0, 1] - ext[0, 0]) * 0.0286 / 1.75)
     with pytest.raises(BadInput):
         R.extent_ratio(img, mat, [0.0])
+
+
+def test_share_gap_interval_covers_the_known_gap_and_widens_for_clustered_people():
+    rng = np.random.default_rng(0)
+    base = np.array([0.1, 0.2, 0.15, 0.25, 0.15, 0.1, 0.05])
+    real = base + rng.normal(0, 0.02, (60, 7))
+    sim = base + rng.normal(0, 0.02, (200, 7))
+    sim[:, 3] += 0.10  # 10 pp more on the pelvis
+    out = R.share_gap_interval(sim, real, n_boot=400)
+    lo, hi = np.array(out["regions"]).T
+    gap = 100 * (sim.mean(0) - real.mean(0))
+    assert np.all((lo < gap) & (gap < hi))  # each interval holds its point estimate
+    assert 8.5 < lo[3] and hi[3] < 11.5  # the known gap stands out
+    assert np.all((lo[[0, 1, 2]] < 0.5) & (hi[[0, 1, 2]] > -0.5))
+    assert out["worst"][0] > 8 and out["by"] == "image"
+    # six people, ten images each, whose own shares differ: resampling people gives a wider interval
+    people = np.repeat(np.arange(6), 10)
+    real_p = real.copy()
+    real_p[:, 3] += rng.normal(0, 0.04, 6)[people]
+    by_image = np.diff(R.share_gap_interval(sim, real_p, n_boot=400)["regions"][3])[0]
+    by_person = np.diff(R.share_gap_interval(sim, real_p, real_cluster=people, n_boot=400)["regions"][3])[0]
+    assert by_person > 1.5 * by_image
+    # a weight is a multiplicity: weights of 2 and 0 equal the duplicated and the dropped images
+    w = np.r_[np.full(100, 2.0), np.zeros(100)]
+    a = R.share_gap_interval(sim, real, sim_weight=w, n_boot=50, seed=1)
+    b = R.share_gap_interval(sim[:100], real, n_boot=50, seed=1)
+    assert a["regions"] == b["regions"]
+    sim_nan = sim.copy()
+    sim_nan[:5] = np.nan  # images without contact are left out
+    assert np.isfinite(R.share_gap_interval(sim_nan, real, n_boot=20)["worst"]).all()
+    with pytest.raises(BadInput):
+        R.share_gap_interval(sim, real[:, :5])
