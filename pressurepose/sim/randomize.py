@@ -14,14 +14,17 @@ Ranges (:class:`RandomizationRanges`) and why:
   differ: on one mat the PMD experiment I supine images (13 people) cover 1217-1531 taxels, and
   the issue's BodiTrak images were taken on a foam and an air mattress.
 * tissue modulus: log-uniform 1.5-6 kPa, a factor of two about the default 3 kPa, inside the
-  1-30 kPa that in vivo indentation of relaxed muscle and fat reports.
+  1-30 kPa that in vivo indentation of relaxed muscle and fat reports. On a bed with another
+  modulus (``generate --bed``, e.g. one fitted by ``calibrate``) the range is scaled to it: a
+  factor of two about the bed's own.
 * sensor gain: U(0.75, 1.25) on the sensor law's C1 and C2: the summed raw reading per kg of body
   weight varies with a coefficient of variation of 0.25 over the PMD experiment I images (13
   people, supine, supine star and hands crossed), on one mat; the paper notes a blanket cut the
   magnitude threefold (the network normalises each image by its sum, so gain mostly moves taxels
   across the threshold).
-* sensor threshold: U(0, 4) mmHg; readings below it are 0 (real mats report nothing below a
-  noise floor; the BodiTrak's is not published, 4 mmHg is 4 % of its 100 mmHg range).
+* sensor threshold: U(0, 4) mmHg above the bed's own (0 on the default bed); readings below it are
+  0 (real mats report nothing below a noise floor; the BodiTrak's is not published, 4 mmHg is 4 %
+  of its 100 mmHg range).
 * mat offset: U(-5, 5) cm across and along the mattress (it must stay on the mattress: the margins
   of the BodiTrak on a twin XL are 10-11 cm). On PMD experiment I the supine bodies' centre of
   pressure lies 1.6 taxels (about 4.5 cm) off the mat's centre line on average, with an sd of 1.7
@@ -112,15 +115,20 @@ class Conditions:
 
 
 def draw_conditions(rng: np.random.Generator, bed, ranges: RandomizationRanges = RandomizationRanges()) -> Conditions:
-    """One sample's :class:`Conditions` about the nominal ``bed`` (a BedSpec), from ``rng``."""
+    """One sample's :class:`Conditions` about the nominal ``bed`` (a BedSpec), from ``rng``: its
+    stiffness and tissue modulus times drawn factors, its threshold plus a drawn one (see the module
+    docstring)."""
 
     def log_uniform(lo, hi):
         return float(math.exp(rng.uniform(math.log(lo), math.log(hi)))) if lo > 0 else float(rng.uniform(lo, hi))
 
+    from pressurepose.sim.bed import TISSUE_MODULUS_PA
+
     k = bed.stiffness_n_m3 * log_uniform(*ranges.stiffness_factor)
-    e = log_uniform(*ranges.tissue_modulus_pa)
+    # the tissue range is about the default modulus; on another bed's it is scaled (by exactly 1 on the default)
+    e = log_uniform(*ranges.tissue_modulus_pa) * (bed.tissue_modulus_pa / TISSUE_MODULUS_PA)
     gain = float(rng.uniform(*ranges.sensor_gain))
-    threshold = float(rng.uniform(*ranges.sensor_threshold_mmhg))
+    threshold = bed.sensor_threshold_mmhg + float(rng.uniform(*ranges.sensor_threshold_mmhg))
     dx, dy = (float(v) for v in rng.uniform(-ranges.mat_offset_m, ranges.mat_offset_m, 2))
     turn = float(rng.uniform(-ranges.mat_rotation_rad, ranges.mat_rotation_rad))
     return Conditions(k, e, gain, threshold, dx, dy, turn)

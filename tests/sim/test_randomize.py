@@ -29,6 +29,19 @@ def test_draws_lie_in_their_ranges_and_follow_the_generator():
         RandomizationRanges(sensor_gain=(1.2, 0.8))
 
 
+def test_draws_about_a_fitted_bed_keep_its_tissue_and_threshold():
+    """On a bed of its own (``generate --bed``) the tissue modulus is drawn about the bed's and the
+    threshold above the bed's; the same generator draws the same factors as on the default bed."""
+    bed = get_bed(tissue_modulus_pa=900.0, sensor_threshold_mmhg=1.0)
+    for i in range(50):
+        a = draw_conditions(np.random.default_rng(i), get_bed())
+        b = draw_conditions(np.random.default_rng(i), bed)
+        assert 450.0 <= b.tissue_modulus_pa <= 1800.0 and 1.0 <= b.sensor_threshold_mmhg <= 5.0
+        assert b.tissue_modulus_pa == pytest.approx(a.tissue_modulus_pa * 0.3)
+        assert b.sensor_threshold_mmhg == pytest.approx(a.sensor_threshold_mmhg + 1.0)
+        assert b.sensor_gain == a.sensor_gain and b.mat_rotation_rad == a.mat_rotation_rad
+
+
 def test_a_mat_moved_one_taxel_sees_the_body_one_taxel_over():
     """Shifting the mat by one taxel pitch under a body (no other change) shifts the image by one
     column and one row; the body's labels move the other way in the mat's frame."""
