@@ -65,3 +65,24 @@ def test_propped_entries_are_training_entries_with_their_own_seed():
     assert sum(e["count"] for e in extra) == 120 and {e["seed"] for e in extra} == {tool.PROPPED_SEED}
     assert len({tool.TRAIN_SEED, tool.TEST_SEED, tool.LATERAL_SEED, tool.PROPPED_SEED}) == 4
     assert tool.with_extra(base, "propped_lateral", 0, 1) == base
+
+
+def test_a_bed_file_goes_to_every_generate_call(tmp_path, monkeypatch):
+    """`--bed FILE` makes the data on that bed; without it the default bed (no --bed)."""
+    import sys
+
+    calls = []
+    T = _tool()
+    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    bed = tmp_path / "bed.json"
+    bed.write_text("{}")
+    for extra in ([], ["--bed", str(bed)]):
+        calls.clear()
+        monkeypatch.setattr(sys, "argv", ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01",
+                                          "--real", str(tmp_path / "none"), *extra])
+        assert T.main() == 0
+        generate = [c for c in calls if c[0] == "generate"]
+        assert len(generate) == 1 and [c[0] for c in calls] == ["generate", "train", "evaluate"]
+        assert ("--bed" in generate[0]) == bool(extra)
+        if extra:
+            assert generate[0][generate[0].index("--bed") + 1] == str(bed.resolve())

@@ -17,6 +17,7 @@ at ``--real``::
     python tools/train_shipped_model.py --work runs/shipped                  # data, training, evaluation
     python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
     python tools/train_shipped_model.py --work runs/pilot --scale 0.1        # a small pilot
+    python tools/train_shipped_model.py --work runs/people --bed bed_people.json  # the same on a calibrated bed
 
 Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the same command and it
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
@@ -145,6 +146,9 @@ def main() -> int:
     p.add_argument("--real", default=str(REPO.parent / "shared" / "data" / "pmd-experiment-i"),
                    help="real images to evaluate on after training, if the folder exists "
                         "[../shared/data/pmd-experiment-i]; never used for training")
+    p.add_argument("--bed", default=None, metavar="JSON",
+                   help="make the data on this bed (a `pressurepose calibrate --out` file; `generate --bed`) "
+                        "instead of the default bed, e.g. to judge a calibrated bed by a model trained on it")
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
@@ -167,7 +171,8 @@ def main() -> int:
         work.mkdir(parents=True, exist_ok=True)
         write_json_atomic(work / "recipe.json", recipe)
         cli("generate", "--recipe", str(work / "recipe.json"), "--randomize", "--shard-size",
-            str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data))
+            str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data),
+            *(["--bed", str(Path(args.bed).resolve())] if args.bed else []))
     run = work / "run"
     cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
