@@ -110,14 +110,13 @@ def run_generate(args: argparse.Namespace) -> int:
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.store import MANIFEST
     from pressurepose.files import check_output_path
-
     from pressurepose.sim.bed import bed_for
 
     check_output_path(args.out, "--out", directory=True)
     bed = bed_for(args.mat, args.bed)
-    common = dict(mat=bed.mat.name, bed=bed.to_dict() if args.bed else "", shard_size=args.shard_size, producer=args.producer,
-                  max_attempts=args.max_attempts, options=dict(args.option), randomize=bool(args.randomize),
-                  **body_settings(args))
+    common = dict(mat=bed.mat.name, bed=bed.to_dict() if args.bed else "", shard_size=args.shard_size,
+                  producer=args.producer, max_attempts=args.max_attempts, options=dict(args.option),
+                  randomize=bool(args.randomize), **body_settings(args))
     out = Path(args.out)
     if args.recipe:
         if args.partition or args.gender or args.count is not None or args.limbs_on_bed:

@@ -189,8 +189,9 @@ class GenerationConfig:
     (:mod:`pressurepose.sim.randomize`). bed: the bed the bodies lie on, as the canonical JSON
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
     calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
-    does not change which bodies are drawn, so two beds with one seed give paired datasets. A manifest written before these existed read back with
-    :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation).
+    does not change which bodies are drawn, so two beds with one seed give paired datasets. A
+    manifest written before these existed reads back with :data:`LEGACY_SAMPLING` (the paper's
+    sampler, no randomisation) and the default bed.
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
     randomisation settings, i) for its random draws, so ``count`` and ``shard_size`` do not change it.

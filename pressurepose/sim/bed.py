@@ -133,7 +133,7 @@ def custom_mat(rows: int, cols: int, pitch_row_m: float, pitch_col_m: float | No
                    max_mmhg)
 
 
-def _bone_fractions(value) -> tuple[float, ...]:
+def bone_fractions(value) -> tuple[float, ...]:
     """A complete tuple of bone fractions (BONE_PARTS order) from a tuple of all or a dict of some."""
     if isinstance(value, dict):
         unknown = sorted(set(value) - set(BONE_PARTS))
@@ -216,7 +216,7 @@ class BedSpec:
             _check_non_negative(f"bed {field}", getattr(self, field))
         for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
             _check_finite(f"bed {field}", getattr(self, field))
-        object.__setattr__(self, "tissue_bone_fraction", _bone_fractions(self.tissue_bone_fraction))
+        object.__setattr__(self, "tissue_bone_fraction", bone_fractions(self.tissue_bone_fraction))
         for field in [f.name for f in dataclasses.fields(self)
                       if f.name not in ("mat", "mat_offset_m", "tissue_bone_fraction")]:
             object.__setattr__(self, field, float(getattr(self, field)))

@@ -36,7 +36,7 @@ import numpy as np
 
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, point_capsule_distance, posed_capsules
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION, _bone_fractions
+from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION, bone_fractions
 
 # the body part (pressurepose.sim.bed.BONE_PARTS) whose bone fraction each capsule takes
 CAPSULE_PART: dict[str, str] = {
@@ -100,7 +100,7 @@ class BoneCores:
     def bones(self, fraction=TISSUE_BONE_FRACTION) -> Bones:
         """The bones with each capsule's part's fraction (``fraction``: a ``BedSpec.tissue_bone_fraction``,
         a tuple in BONE_PARTS order or a dict of some parts)."""
-        frac = np.asarray(_bone_fractions(fraction))[_PART_OF_CAPSULE]
+        frac = np.asarray(bone_fractions(fraction))[_PART_OF_CAPSULE]
         return Bones(self.ends, frac * self.mean_radius * self.scale)
 
 
