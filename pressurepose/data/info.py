@@ -27,6 +27,7 @@ class Summary:
     attempts: int = 0
     rejections: dict[str, int] = field(default_factory=dict)
     incomplete: list[str] = field(default_factory=list)
+    beds: list[str] = field(default_factory=list)  # the beds given to `generate --bed`, one line each
     pressure_mean: float = 0.0        # mmHg over all taxels
     pressure_mean_loaded: float = 0.0  # mmHg over taxels with pressure > 0
     pressure_max: float = 0.0
@@ -57,6 +58,13 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
             s.rejections[cause] = s.rejections.get(cause, 0) + n
         if not m.complete:
             s.incomplete.append(f"{part.path} ({len(m.shards)} of {c.num_shards} shards)")
+        if c.bed:
+            b = c.bed_spec()
+            line = (f"k_A {b.stiffness_n_m3:.3g} N/m^3, tissue {b.tissue_modulus_pa:.3g} Pa, threshold "
+                    f"{b.sensor_threshold_mmhg:.2g} mmHg, bone fractions "
+                    + " ".join(f"{v:.2g}" for v in b.tissue_bone_fraction))
+            if line not in s.beds:
+                s.beds.append(line)
     edges = np.linspace(0.0, mat.max_mmhg * 1.5, 151)
     hist = np.zeros(len(edges) - 1)
     total = loaded = contact = 0.0
@@ -110,6 +118,8 @@ def format_summary(s: Summary) -> str:
                  f"over loaded taxels, 99th percentile {s.pressure_p99:.1f}, max {s.pressure_max:.1f}")
     lines.append(f"contact: {100.0 * s.contact_fraction:.1f}% of taxels; force on the mat / body weight: "
                  f"mean {s.load_ratio_mean:.3f}")
+    for bed in s.beds:
+        lines.append(f"made on a given bed (generate --bed): {bed}")
     for inc in s.incomplete:
         lines.append(f"incomplete: {inc}")
     return "\n".join(lines)

@@ -142,4 +142,8 @@ def test_generate_on_a_bed_file(tmp_path):
     b = DatasetReader(tmp_path / "b").load_arrays(("pressure", "betas"))
     np.testing.assert_array_equal(a["betas"], b["betas"])
     assert ((b["pressure"] > 5).sum((1, 2)) < (a["pressure"] > 5).sum((1, 2))).all()
+    from pressurepose.data.info import format_summary, summarize
+
+    assert "made on a given bed" in format_summary(summarize(tmp_path / "b", examples=0))
+    assert "given bed" not in format_summary(summarize(tmp_path / "a", examples=0))
     assert main(common + ["--out", str(tmp_path / "c"), "--bed", str(tmp_path / "bed.json"), "--mat", "slp"]) == 2
