@@ -143,6 +143,18 @@ def _context(producer: str):
     return mp.get_context("spawn")
 
 
+def _abandon(pool: ProcessPoolExecutor) -> None:
+    """Shut a pool down without waiting, and terminate its workers. A broken pool's manager thread
+    terminates the workers it knows of and then joins them all; a worker started by a ``submit`` in
+    the same moment escapes the termination and waits for work forever, and the manager's join with
+    it, which hangs the interpreter at exit. Terminating every worker here closes that race."""
+    workers = list((getattr(pool, "_processes", None) or {}).values())  # no public handle on them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in workers:
+        if proc.is_alive():
+            proc.terminate()
+
+
 def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> int:
     tracker = _Retries(retries, on_failure)
     ctx = _context(units[0].config.producer)
@@ -190,11 +202,11 @@ def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> in
                     tracker.failed(unit, BrokenProcessPool("a worker process died"))
                     todo.appendleft(unit)
                 running.clear()
-                pool.shutdown(wait=False, cancel_futures=True)
+                _abandon(pool)
                 pool = new_pool()
         drain()
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
+        _abandon(pool)
         raise
     pool.shutdown(wait=True)
     return tracker.total

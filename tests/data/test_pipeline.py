@@ -125,6 +125,14 @@ def test_crashed_worker_process_is_retried(tmp_path):
     report = generate(c, tmp_path / "d", workers=2, progress=False)
     assert (tmp_path / "crashed_once").exists() and report.retries >= 1
     assert report.manifest.complete
+    # no worker of the broken pool is left waiting for work (it would hang the interpreter at exit)
+    import multiprocessing
+    import time
+
+    deadline = time.monotonic() + 10
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not multiprocessing.active_children()
 
 
 def test_unit_that_keeps_failing_fails_loudly(tmp_path):
