@@ -84,13 +84,14 @@ def main(argv=None) -> None:
             ("simulated general_supine lying long", int(long.sum()), float(np.std(s_h[long])),
              corr(s_h[long], s_len[long]), corr(s_h[long], s_trunk[long]))]
     lines = ["### Height cues in supine images (`benchmarks/bench_height_cues.py`)\n",
-             f"`python -m benchmarks.bench_height_cues" + (f" --synthetic {args.synthetic}" if args.synthetic else
+             "`python -m benchmarks.bench_height_cues" + (f" --synthetic {args.synthetic}" if args.synthetic else
                                                            f" --count {args.count} --seed {args.seed}")
              + f"`; {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, {datetime.date.today()}.\n",
              "Correlation with the measured (real) or model (simulated) stature of two image-only cues: the "
              "contact extent along the bed and the crown-to-pelvis distance (top of the extent to the row of peak "
              "load in its middle 35-65 %). Simulated bodies lying long: extent at least 0.9 of the stature.\n",
-             "| images | n | stature sd (cm) | r(stature, extent) | r(stature, crown to pelvis) |", "|---|---|---|---|---|"]
+             "| images | n | stature sd (cm) | r(stature, extent) | r(stature, crown to pelvis) |",
+             "|---|---|---|---|---|"]
     lines += [f"| {name} | {n} | {100 * sd:.1f} | {a:+.2f} | {b:+.2f} |" for name, n, sd, a, b in rows]
     body = "\n".join(lines) + "\n"
     print(body)

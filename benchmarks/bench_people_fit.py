@@ -122,10 +122,11 @@ def main(argv=None) -> None:
              f"fitted {', '.join(f'`{k}`' for k in rec['fitted'] if rec['constants_from'][k].startswith('CMA-ES'))} "
              f"({rec['evaluations']} evaluations, {rec['seconds']:.0f} s; loss {rec['start_loss']:.3f} -> "
              f"{rec['loss']:.3f}, 1 = every term at its goal on average). Region shares compare like postures "
-             f"(`realism --match-extent`); goals: area ratio 0.8-1.2, head imprint >= 0.8, every region within 5 pp. The interval resamples "
-             f"the real images by person and the simulated ones by image (`realism.share_gap_interval`).\n",
-             "| real images | bed | posture | images real / sim | contact taxels real / sim (ratio) | head imprint real "
-             "/ sim | " + " | ".join(f"{k} %" for k in REGIONS) + " | worst share gap (pp; 90 % interval) |",
+             "(`realism --match-extent`); goals: area ratio 0.8-1.2, head imprint >= 0.8, every region within "
+             "5 pp. The interval resamples the real images by person and the simulated ones by image "
+             "(`realism.share_gap_interval`).\n",
+             "| real images | bed | posture | images real / sim | contact taxels real / sim (ratio) | head imprint "
+             "real / sim | " + " | ".join(f"{k} %" for k in REGIONS) + " | worst share gap (pp; 90 % interval) |",
              "|---" * (7 + len(REGIONS)) + "|"]
     for who, label, r in rows:
         shares = " | ".join(f"{100 * r['share_real'][k]:.1f} / {100 * r['share_sim'][k]:.1f}" for k in REGIONS)

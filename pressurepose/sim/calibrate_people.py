@@ -280,7 +280,7 @@ def run_people_calibration(args) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", suffixes=(".png",))
     t0 = time.perf_counter()
-    bed = bed_for(args.mat, getattr(args, "bed", None))
+    bed = bed_for(args.mat, args.bed)
     match = None
     if Path(args.real).is_file():
         if args.match_extent:

@@ -41,7 +41,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
                    help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
-                        "threshold and (--targets real) bone_pelvis, bone_spine, ... bone_hand [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                        "threshold and (--targets real) bone_pelvis, bone_spine, ... bone_hand "
+                        "[stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
                         "stiffness,tissue,threshold for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")

@@ -7,11 +7,11 @@ compliance a cell adds is ``t / (E A)`` (m/N), and a stack of tissue and Winkler
 spring ``1 / (1 / (k_A A) + t / (E A))``.
 
 Tissue depth comes from the body itself: the bone of each of the 20 ragdoll capsules
-(:mod:`pressurepose.body.capsules`) is a core of radius ``f`` times the capsule's
-radius *of the mean body of the same stature*, ``f`` the fraction of its body part
-(``BedSpec.tissue_bone_fraction``, :data:`CAPSULE_PART`) (a skeleton scales with height, not with weight),
-around the capsule's axis; a surface point's tissue depth is its distance to the nearest bone,
-clipped to ``[TISSUE_MIN_M, TISSUE_MAX_M]``. A heavier body has wider capsules over the same bone,
+(:mod:`pressurepose.body.capsules`) is a core of radius ``f`` times the capsule's radius *of the
+mean body of the same stature* (a skeleton scales with height, not with weight), ``f`` the fraction
+of its body part (``BedSpec.tissue_bone_fraction``, :data:`CAPSULE_PART`), around the capsule's
+axis; a surface point's tissue depth is its distance to the nearest bone, clipped to
+``[TISSUE_MIN_M, TISSUE_MAX_M]``. A heavier body has wider capsules over the same bone,
 so thicker tissue; where the mesh bulges past its capsule (the buttocks) the tissue is thicker
 still.
 
