@@ -19,6 +19,8 @@ VERBS: dict[str, tuple[str, str, str]] = {
                  "settle bodies on the bed and press them: pressure images and labels (.npz, --plot)"),
     "calibrate": ("pressurepose.sim.commands", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
     "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
+    "repress": ("pressurepose.data.commands", "repress",
+                "press a dataset's resting bodies again on another bed (tissue, sensor): new images, no settling"),
     "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
     "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
     "sample": ("pressurepose.pose.commands", "sample", "draw initial bodies of a posture partition (rejection sampler)"),

@@ -267,3 +267,34 @@ def run_convert(args: argparse.Namespace) -> int:
         c = m.config
         print(f"{f}: {c.count} samples ({c.partition}, {c.gender}{', limbs on bed' if c.limbs_on_bed else ''})")
     return 0
+
+
+def add_repress_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = (
+        "Press a dataset's resting bodies again on another bed: new images, the same rests, in minutes "
+        "instead of the hours settling takes. The bed (a `pressurepose calibrate --out` file or a bare "
+        "BedSpec record) may differ from the dataset's own only in the soft tissue and the sensor law "
+        "and threshold (what the settle does not use); randomised samples keep their draws. SRC may be "
+        "one dataset or a folder of them (a recipe's output); OUT gets the same layout. Resumable: rerun "
+        "the same command to finish. Wedge partitions cannot be re-pressed (the wedge's forces are not stored).")
+    p.add_argument("src", help="dataset directory, or a folder of datasets")
+    p.add_argument("--bed", required=True, help="JSON file of the bed to press on")
+    p.add_argument("--out", required=True, help="output directory (new or empty, or the same run to resume)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run_repress(args: argparse.Namespace) -> int:
+    from pressurepose.data.repress import repress
+    from pressurepose.files import check_output_path
+    from pressurepose.sim.bed import load_bed
+
+    src, out = Path(args.src), Path(args.out)
+    check_output_path(out, "--out", directory=True)
+    if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:
+        raise BadInput(f"--out {out} lies inside the source {src}; choose a directory outside it")
+    manifests = repress(src, out, load_bed(args.bed), progress=not args.no_progress)
+    made = sum(m.samples_done for m in manifests)
+    failed = sum(m.rejections.get("press_failed", 0) for m in manifests)
+    print(f"re-pressed {made} samples of {len(manifests)} dataset(s) into {out}"
+          + (f"; {failed} bodies the new bed could not balance were left out" if failed else ""))
+    return 0

@@ -28,6 +28,7 @@ class Summary:
     rejections: dict[str, int] = field(default_factory=dict)
     incomplete: list[str] = field(default_factory=list)
     beds: list[str] = field(default_factory=list)  # the beds given to `generate --bed`, one line each
+    repressed_from: list[str] = field(default_factory=list)  # sources of `repress`ed datasets
     pressure_mean: float = 0.0        # mmHg over all taxels
     pressure_mean_loaded: float = 0.0  # mmHg over taxels with pressure > 0
     pressure_max: float = 0.0
@@ -65,6 +66,9 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
                     + " ".join(f"{v:.2g}" for v in b.tissue_bone_fraction))
             if line not in s.beds:
                 s.beds.append(line)
+        source = m.provenance.get("repressed_from")
+        if isinstance(source, dict) and source.get("path") not in s.repressed_from:
+            s.repressed_from.append(str(source.get("path")))
     edges = np.linspace(0.0, mat.max_mmhg * 1.5, 151)
     hist = np.zeros(len(edges) - 1)
     total = loaded = contact = 0.0
@@ -119,7 +123,9 @@ def format_summary(s: Summary) -> str:
     lines.append(f"contact: {100.0 * s.contact_fraction:.1f}% of taxels; force on the mat / body weight: "
                  f"mean {s.load_ratio_mean:.3f}")
     for bed in s.beds:
-        lines.append(f"made on a given bed (generate --bed): {bed}")
+        lines.append(f"made on a given bed (generate --bed or repress): {bed}")
+    for src in s.repressed_from:
+        lines.append(f"re-pressed (pressurepose repress) from the resting bodies of {src}")
     for inc in s.incomplete:
         lines.append(f"incomplete: {inc}")
     return "\n".join(lines)

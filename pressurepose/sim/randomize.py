@@ -102,6 +102,15 @@ class Conditions:
             sensor_threshold_mmhg=self.sensor_threshold_mmhg,
             mat_offset_m=(ox + self.mat_offset_x_m, oy + self.mat_offset_y_m))
 
+    def rebased(self, old, new) -> "Conditions":
+        """The conditions the same draws give about the nominal bed ``new`` instead of ``old`` (see
+        :func:`draw_conditions`: stiffness and tissue modulus scale with the nominal bed's, the
+        threshold is the nominal one plus the draw; gain and placement do not depend on the bed)."""
+        return dataclasses.replace(
+            self, mattress_stiffness_n_m3=self.mattress_stiffness_n_m3 * new.stiffness_n_m3 / old.stiffness_n_m3,
+            tissue_modulus_pa=self.tissue_modulus_pa * new.tissue_modulus_pa / old.tissue_modulus_pa,
+            sensor_threshold_mmhg=self.sensor_threshold_mmhg - old.sensor_threshold_mmhg + new.sensor_threshold_mmhg)
+
     def body_motion(self, nominal) -> np.ndarray:
         """(4, 4) rigid motion of a body settled on ``nominal`` into the frame of the moved mat
         (:meth:`bed`): turned by -rotation about the sensing area's centre, then shifted by -offset."""

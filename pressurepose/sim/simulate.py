@@ -62,6 +62,19 @@ def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.nda
     return new_pose, new_transl
 
 
+def press_at(body, betas, pose, transl, mass_kg: float, bed, *, verts=None, com_xy=None):
+    """The :class:`~pressurepose.sim.press.PressResult` of the body at (betas (S,), pose (72,),
+    transl (3,)) pressed into ``bed`` with its soft tissue (bones from the pose, fractions from the
+    bed). verts: (1, V, 3) the mesh at that pose, if already computed; com_xy: as ``press``'s."""
+    from pressurepose.sim.press import press
+    from pressurepose.sim.tissue import body_bones
+
+    if verts is None:
+        verts, _ = body.forward(betas, pose, transl)
+    return press(verts[0], body.faces, mass_kg, bed, com_xy=com_xy,
+                 bones=body_bones(body, betas, pose, transl, bed.tissue_bone_fraction))
+
+
 def limb_off_bed(joints: np.ndarray, bed) -> bool:
     """Whether a limb hangs over the mattress's edge: a limb joint of ``joints`` (24, 3) bed frame
     beyond the mattress's outline and more than HANG_DEPTH_M below its top. (A hand or foot that
@@ -93,9 +106,8 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
-    from pressurepose.sim.press import PressFailed, mesh_centroid, press
+    from pressurepose.sim.press import PressFailed, mesh_centroid
     from pressurepose.sim.settle import settle
-    from pressurepose.sim.tissue import body_bones
     from pressurepose.sim.wedge import relieved_body, with_wedge
 
     clock = {} if timings is None else timings
@@ -126,8 +138,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
         if wedge is not None:
             mass, com_xy = relieved_body(rest.mass_kg, mesh_centroid(verts[0], body.faces)[1][:2], points,
                                          rest.wedge_force_z)
-        image = press(verts[0], body.faces, mass, press_bed, com_xy=com_xy,
-                      bones=body_bones(body, rest.betas, pose, transl, press_bed.tissue_bone_fraction))
+        image = press_at(body, rest.betas, pose, transl, mass, press_bed, verts=verts, com_xy=com_xy)
         if wedge is not None:
             image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
     except PressFailed:
