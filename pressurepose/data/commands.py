@@ -276,10 +276,13 @@ def add_repress_arguments(p: argparse.ArgumentParser) -> None:
         "BedSpec record) may differ from the dataset's own only in the soft tissue and the sensor law "
         "and threshold (what the settle does not use); randomised samples keep their draws. SRC may be "
         "one dataset or a folder of them (a recipe's output); OUT gets the same layout. Resumable: rerun "
-        "the same command to finish. Wedge partitions cannot be re-pressed (the wedge's forces are not stored).")
+        "the same command to finish. Wedge partitions cannot be re-pressed (the wedge's forces are not stored): "
+        "--skip-wedge leaves them out, to be made with generate --bed.")
     p.add_argument("src", help="dataset directory, or a folder of datasets")
     p.add_argument("--bed", required=True, help="JSON file of the bed to press on")
     p.add_argument("--out", required=True, help="output directory (new or empty, or the same run to resume)")
+    p.add_argument("--skip-wedge", action="store_true",
+                   help="leave out datasets of wedge partitions (propped_lateral) instead of refusing")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -292,7 +295,7 @@ def run_repress(args: argparse.Namespace) -> int:
     check_output_path(out, "--out", directory=True)
     if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:
         raise BadInput(f"--out {out} lies inside the source {src}; choose a directory outside it")
-    manifests = repress(src, out, load_bed(args.bed), progress=not args.no_progress)
+    manifests = repress(src, out, load_bed(args.bed), progress=not args.no_progress, skip_wedge=args.skip_wedge)
     made = sum(m.samples_done for m in manifests)
     failed = sum(m.rejections.get("press_failed", 0) for m in manifests)
     print(f"re-pressed {made} samples of {len(manifests)} dataset(s) into {out}"

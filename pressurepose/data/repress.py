@@ -165,20 +165,30 @@ def repress_dataset(src: str | Path, out: str | Path, bed: BedSpec, *, progress=
     return manifest
 
 
-def repress(src: str | Path, out: str | Path, bed: BedSpec, *, progress: bool = True) -> list[Manifest]:
+def repress(src: str | Path, out: str | Path, bed: BedSpec, *, progress: bool = True,
+            skip_wedge: bool = False) -> list[Manifest]:
     """Re-press every dataset under ``src`` (a dataset or a folder of them, e.g. a recipe's
-    output) into the same layout under ``out``. Every dataset is checked before any is written."""
+    output) into the same layout under ``out``. Every dataset is checked before any is written;
+    ``skip_wedge``: leave out the datasets of wedge partitions instead of refusing them (make those
+    anew with ``generate --bed``)."""
     from tqdm import tqdm
+
+    from pressurepose.pose.partitions import get_partition
 
     src, out = Path(src), Path(out)
     parts = find_datasets(src)
     if not parts:
         raise BadInput(f"{src} holds no pressurepose dataset")
+    if skip_wedge:
+        parts = [p for p in parts if not get_partition(Manifest.load(p).config.partition).wedge]
+        if not parts:
+            raise BadInput(f"every dataset under {src} is of a wedge partition; nothing to re-press")
     for p in parts:
         try:
             repress_config(Manifest.load(p).config, bed)
         except BadInput as exc:
-            raise BadInput(f"{p}: {exc}") from None
+            raise BadInput(f"{p}: {exc}" + ("; --skip-wedge leaves such datasets out" if "wedge" in str(exc) else
+                                            "")) from None
     done = [Manifest.load(out / p.relative_to(src)).samples_done if (out / p.relative_to(src) / MANIFEST).exists()
             else 0 for p in parts]
     total = sum(Manifest.load(p).samples_done for p in parts)

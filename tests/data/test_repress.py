@@ -144,3 +144,23 @@ def test_the_repress_command(source, tmp_path, capsys):
     assert main(["repress", str(source), "--bed", str(tmp_path / "bed.json"), "--out", str(source / "o"),
                  "--no-progress"]) == 2
     assert "inside the source" in capsys.readouterr().err
+
+
+def test_a_recipe_folder_with_a_wedge_partition(source, tmp_path):
+    """A folder holding a wedge partition's dataset is refused as a whole, naming it, unless
+    --skip-wedge leaves that dataset out."""
+    import shutil
+
+    from pressurepose.data.store import write_dataset
+
+    root = tmp_path / "recipe"
+    shutil.copytree(source, root / "plain")
+    samples = list(DatasetReader(source))[:1]
+    write_dataset(root / "propped", GenerationConfig(partition="propped_lateral", gender="m", count=1, seed=1),
+                  samples)
+    with pytest.raises(BadInput, match="propped.*--skip-wedge"):
+        repress(root, tmp_path / "out", get_bed(), progress=False)
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+    made = repress(root, tmp_path / "out", get_bed(), progress=False, skip_wedge=True)
+    assert len(made) == 1 and (tmp_path / "out" / "plain" / MANIFEST).exists()
+    assert not (tmp_path / "out" / "propped").exists()
