@@ -111,13 +111,16 @@ class RestingBody:
     """A settled body ready to be re-pressed: its lower surface and tissue depth on the bed's press
     grid (:class:`~pressurepose.sim.press.Heightfield`), mass (kg), posture group, its bones
     before the bone fractions (:class:`~pressurepose.sim.tissue.BoneCores`) and the fractions
-    (``BedSpec.tissue_bone_fraction``) the field's tissue was made with."""
+    (``BedSpec.tissue_bone_fraction``) the field's tissue was made with; ``vertices`` (V, 3) and
+    ``faces`` (F, 3): its mesh where it rests, for the full press (:func:`tipping`)."""
 
     field: Heightfield
     mass_kg: float
     posture: str
     cores: BoneCores
     fraction: tuple[float, ...]
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
 
     def on(self, bed: BedSpec) -> "RestingBody":
         """The body with the tissue of ``bed``'s bone fractions (itself when they are its own)."""
@@ -133,7 +136,7 @@ def resting_body(body, betas, pose, transl, mass_kg: float, bed: BedSpec, postur
     verts, _ = body.forward(betas, pose, transl)
     cores = bone_cores(body, betas, pose, transl)
     field = body_heightfield(verts[0], body.faces, bed, bones=cores.bones(bed.tissue_bone_fraction))
-    return RestingBody(field, float(mass_kg), str(posture), cores, bed.tissue_bone_fraction)
+    return RestingBody(field, float(mass_kg), str(posture), cores, bed.tissue_bone_fraction, verts[0], body.faces)
 
 
 def resting_bodies(source, bed: BedSpec, per_posture: int = 4,
@@ -222,6 +225,27 @@ def pressable(bodies: list[RestingBody], bed: BedSpec) -> tuple[list[RestingBody
         except PressFailed:
             pass
     return keep, len(bodies) - len(keep)
+
+
+def tipping(bodies: list[RestingBody], bed: BedSpec) -> dict[str, tuple[int, int]]:
+    """{posture group: (bodies that tip over, bodies)} when each body's mesh is pressed on ``bed``
+    with the full press (:func:`pressurepose.sim.press.press`: turned and pressed again while it
+    tilts). The fit's first-order re-press does not turn the body, so it can accept a bed on which
+    bodies lying on their side would roll over: ``generate`` rejects those (``press_failed``) and
+    ``repress`` leaves them out. Bodies without a mesh are not counted."""
+    from pressurepose.sim.press import press
+
+    out: dict[str, list[int]] = {}
+    for b in bodies:
+        if b.vertices is None:
+            continue
+        count = out.setdefault(b.posture, [0, 0])
+        count[1] += 1
+        try:
+            press(b.vertices, b.faces, b.mass_kg, bed, bones=b.cores.bones(bed.tissue_bone_fraction))
+        except PressFailed:
+            count[0] += 1
+    return {g: (t, n) for g, (t, n) in out.items()}
 
 
 def simulated_stats(forces: np.ndarray, bodies: list[RestingBody], bed: BedSpec,
@@ -314,6 +338,7 @@ def run_people_calibration(args) -> int:
     res = calibrate_people(bodies, targets, bed, fit=fit, popsize=args.popsize or 10, seed=args.seed,
                            max_evals=args.max_evals or 400, progress=progress)
     final = simulated_stats(press_forces(bodies, res.bed), bodies, res.bed)
+    tipped = tipping(bodies, res.bed)
     where = {"fitted": f"CMA-ES on statistics of real images: {targets.source}",
              "start": f"the shipped bed for the {bed.mat.name} mat (docs/calibration.md: k_A and spread from "
                       f"documented physical targets, ideal sensor, tissue modulus from docs/physics.md)"}
@@ -327,6 +352,7 @@ def run_people_calibration(args) -> int:
                    "bodies_per_posture": {g: sum(b.posture == g for b in bodies) for g in targets.groups}},
         "targets": {g: t.__dict__ for g, t in targets.groups.items()},
         "simulated_after": {g: t.__dict__ for g, t in final.items()},
+        "tipped_after": {g: {"tipped": t, "bodies": n} for g, (t, n) in tipped.items()},
         "seconds": round(time.perf_counter() - t0, 1)}
     write_json_atomic(out, record)
     print(f"loss {start_loss:.4f} -> {res.loss:.4f} after {res.evaluations} evaluations; fitted " +
@@ -337,6 +363,10 @@ def run_people_calibration(args) -> int:
             print(f"{g}: contact taxels {s.contact_taxels:.0f} (real {t.contact_taxels:.0f}), mean "
                   f"{s.mean_mmhg:.1f} mmHg ({t.mean_mmhg:.1f}), peak {s.peak_mmhg:.1f} ({t.peak_mmhg:.1f}), worst "
                   f"region share gap {100 * np.max(np.abs(np.subtract(s.shares, t.shares))):.1f} pp")
+    for g, (t, n) in tipped.items():
+        if t:
+            print(f"warning: {t} of {n} {g} bodies tip over on the fitted bed when pressed in full (the fit's "
+                  f"first-order re-press does not see it); data made on it loses them (press_failed)")
     print(f"wrote {out}")
     if args.plot:
         import matplotlib

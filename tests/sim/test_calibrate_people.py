@@ -20,16 +20,21 @@ FAST_BED = get_bed(press_cell_m=0.0143)  # 2 x 2 cells per taxel
 SUPINE_ROOT = np.array([0.0, -np.pi / np.sqrt(2), -np.pi / np.sqrt(2)])
 
 
-def lying_body(body, betas, bed, arm_drop: float = 1.3) -> C.RestingBody:
-    """A supine body, arms lowered toward its sides, centred on the mat, lowest point at z = 0."""
+def lying_body(body, betas, bed, arm_drop: float = 1.3, roll: float = 0.0) -> C.RestingBody:
+    """A supine body (turned ``roll`` rad about the bed's long axis), arms lowered toward its sides,
+    centred on the mat, lowest point at z = 0."""
+    from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle
+
     pose = np.zeros(72)
-    pose[:3] = SUPINE_ROOT
+    turn = Y_UP_TO_Z_UP.T @ rodrigues(np.array([0.0, roll, 0.0])) @ Y_UP_TO_Z_UP
+    pose[:3] = rotation_to_axis_angle(turn @ rodrigues(SUPINE_ROOT))
     pose[3 * joint_index("left_shoulder") + 2] -= arm_drop
     pose[3 * joint_index("right_shoulder") + 2] += arm_drop
     v, _ = body.forward(betas, pose, np.zeros(3))
     centre = (v[0].max(0) + v[0].min(0)) / 2
     transl = np.array([bed.mat.width_m / 2 - centre[0], bed.mat.length_m / 2 - centre[1], -v[0][:, 2].min()])
-    return C.resting_body(body, betas, pose, transl, float(body.mass(betas)[0]), bed, "supine")
+    return C.resting_body(body, betas, pose, transl, float(body.mass(betas)[0]), bed, "supine" if roll < 0.78 else
+                          "lateral")
 
 
 @pytest.fixture(scope="module")
@@ -146,3 +151,16 @@ def test_bone_fractions_are_fitted_against_people_only(tmp_path):
 
     assert main(["calibrate", "--targets", "default", "--fit", "stiffness,bone_pelvis",
                  "--out", str(tmp_path / "b.json")]) == 2
+
+
+def test_tipping_sees_what_the_first_order_re_press_does_not(bodies):
+    """A body turned 0.32 rad onto its side without anything to hold it: the fit's first-order
+    re-press finds it a support (slope under the 0.3 rad limit), the full press turns it again
+    and again until it tips over. Resting supine bodies do not tip."""
+    assert C.tipping(bodies, FAST_BED) == {"supine": (0, 2)}
+    leaning = lying_body(BodyModel("f"), np.zeros(10), FAST_BED, roll=0.32)
+    C.press_forces([leaning], FAST_BED)  # no PressFailed
+    assert C.tipping([leaning], FAST_BED) == {"supine": (1, 1)}
+    import dataclasses
+
+    assert C.tipping([dataclasses.replace(leaning, vertices=None)], FAST_BED) == {}
