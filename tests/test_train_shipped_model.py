@@ -4,6 +4,8 @@ import importlib.util
 import json
 from pathlib import Path
 
+import pytest
+
 from pressurepose.data.recipes import load_recipe
 
 TOOL = Path(__file__).resolve().parents[1] / "tools" / "train_shipped_model.py"
@@ -86,3 +88,26 @@ def test_a_bed_file_goes_to_every_generate_call(tmp_path, monkeypatch):
         assert ("--bed" in generate[0]) == bool(extra)
         if extra:
             assert generate[0][generate[0].index("--bed") + 1] == str(bed.resolve())
+
+
+def test_repress_from_re_presses_both_splits_and_generates_only_the_wedge_entries(tmp_path, monkeypatch):
+    import sys
+
+    calls = []
+    T = _tool()
+    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    bed = tmp_path / "bed.json"
+    bed.write_text("{}")
+    argv = ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01", "--real", str(tmp_path / "x"),
+            "--repress-from", str(tmp_path / "old")]
+    monkeypatch.setattr(sys, "argv", argv)
+    with pytest.raises(SystemExit):  # --repress-from without --bed
+        T.main()
+    monkeypatch.setattr(sys, "argv", argv + ["--bed", str(bed)])
+    assert T.main() == 0
+    assert [c[0] for c in calls] == ["repress", "repress", "generate", "train", "evaluate"]
+    assert [c[1] for c in calls[:2]] == [str((tmp_path / "old" / s).resolve()) for s in ("train", "test")]
+    assert all("--skip-wedge" in c and str(bed.resolve()) in c for c in calls[:2])
+    recipe = json.loads((tmp_path / "w" / "recipe_wedge.json").read_text())
+    assert recipe["entries"] and {e["partition"] for e in recipe["entries"]} == {"propped_lateral"}
+    assert calls[2][calls[2].index("--recipe") + 1] == str(tmp_path / "w" / "recipe_wedge.json")

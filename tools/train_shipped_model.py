@@ -18,6 +18,8 @@ at ``--real``::
     python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
     python tools/train_shipped_model.py --work runs/pilot --scale 0.1        # a small pilot
     python tools/train_shipped_model.py --work runs/people --bed bed_people.json  # the same on a calibrated bed
+    python tools/train_shipped_model.py --work runs/people --bed bed_people.json \
+        --repress-from runs/shipped/data   # ... re-pressing an earlier run's bodies (tissue, sensor beds)
 
 Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the same command and it
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
@@ -149,6 +151,11 @@ def main() -> int:
     p.add_argument("--bed", default=None, metavar="JSON",
                    help="make the data on this bed (a `pressurepose calibrate --out` file; `generate --bed`) "
                         "instead of the default bed, e.g. to judge a calibrated bed by a model trained on it")
+    p.add_argument("--repress-from", default=None, metavar="DATA",
+                   help="with --bed: press the bodies of an earlier run's data (DATA/train and DATA/test, e.g. "
+                        "runs/shipped/data) again on the bed (`pressurepose repress`: minutes, no settling; the "
+                        "bed may differ only in tissue and sensor constants) and generate only the wedge "
+                        "partitions anew on it")
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
@@ -158,11 +165,14 @@ def main() -> int:
     for name in ("lateral", "propped"):
         if getattr(args, name) < 0:
             p.error(f"--{name} {getattr(args, name)}: expected a number of samples >= 0")
+    if args.repress_from and not args.bed:
+        p.error("--repress-from needs --bed (the bed to press the bodies on)")
 
     work = Path(args.work).resolve()
     data = work / "data"
     if not args.skip_generate:
         from pressurepose.files import write_json_atomic
+        from pressurepose.pose.partitions import get_partition
 
         recipe = scaled_recipe(json.loads(PAPER_RECIPE.read_text()), round(TRAIN_SAMPLES * args.scale),
                                max(1, round(TEST_SAMPLES * args.scale)), TRAIN_SEED, TEST_SEED)
@@ -170,9 +180,19 @@ def main() -> int:
         recipe = with_extra(recipe, "propped_lateral", round(args.propped * args.scale), PROPPED_SEED)
         work.mkdir(parents=True, exist_ok=True)
         write_json_atomic(work / "recipe.json", recipe)
-        cli("generate", "--recipe", str(work / "recipe.json"), "--randomize", "--shard-size",
-            str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data),
-            *(["--bed", str(Path(args.bed).resolve())] if args.bed else []))
+        recipe_file = work / "recipe.json"
+        if args.repress_from:
+            source = Path(args.repress_from).resolve()
+            for split in ("train", "test"):
+                cli("repress", str(source / split), "--bed", str(Path(args.bed).resolve()), "--out", str(data / split),
+                    "--skip-wedge", "--no-progress")
+            recipe = {**recipe, "entries": [e for e in recipe["entries"] if get_partition(e["partition"]).wedge]}
+            recipe_file = work / "recipe_wedge.json"
+            write_json_atomic(recipe_file, recipe)
+        if recipe["entries"]:
+            cli("generate", "--recipe", str(recipe_file), "--randomize", "--shard-size",
+                str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data),
+                *(["--bed", str(Path(args.bed).resolve())] if args.bed else []))
     run = work / "run"
     cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
