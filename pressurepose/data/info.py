@@ -124,8 +124,14 @@ def format_summary(s: Summary) -> str:
                  f"mean {s.load_ratio_mean:.3f}")
     for bed in s.beds:
         lines.append(f"made on a given bed (generate --bed or repress): {bed}")
+    by_parent: dict[str, int] = {}
     for src in s.repressed_from:
-        lines.append(f"re-pressed (pressurepose repress) from the resting bodies of {src}")
+        parent = str(Path(src).parent)
+        by_parent[parent] = by_parent.get(parent, 0) + 1
+    for parent, n in by_parent.items():
+        where = (f"{n} datasets under {parent}" if n > 1 else
+                 next(src for src in s.repressed_from if str(Path(src).parent) == parent))
+        lines.append(f"re-pressed (pressurepose repress) from the resting bodies of {where}")
     for inc in s.incomplete:
         lines.append(f"incomplete: {inc}")
     return "\n".join(lines)
