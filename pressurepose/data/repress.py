@@ -125,9 +125,11 @@ def repress_dataset(src: str | Path, out: str | Path, bed: BedSpec, *, progress=
     if not source.complete:
         raise BadInput(f"dataset {src} is incomplete; finish it (rerun its generate command) before re-pressing")
     config = repress_config(source.config, bed)
-    provenance = {**producer_provenance(config),
-                  "repressed_from": {"path": str(src.resolve()), "config_digest": source.config.digest,
-                                     "shards": {shard_name(k): r.sha256 for k, r in sorted(source.shards.items())}}}
+    # the rests are the source's: its sampler and settle constants stay on record, the bed is the new one
+    provenance = json.loads(json.dumps({
+        **(source.provenance or producer_provenance(source.config)), "bed": bed.to_dict(),
+        "repressed_from": {"path": str(src.resolve()), "config_digest": source.config.digest,
+                           "shards": {shard_name(k): r.sha256 for k, r in sorted(source.shards.items())}}}))
     manifest = _open_output(out, config, provenance)
     body, _ = setup(config)
     old = source.config.bed_spec()

@@ -73,6 +73,9 @@ def test_softer_tissue_spreads_the_same_bodies(source, tmp_path):
     m = json.loads((tmp_path / "soft" / MANIFEST).read_text())
     assert m["config"]["bed"]["tissue_modulus_pa"] == 1000.0 and m["complete"]
     assert m["provenance"]["repressed_from"]["config_digest"] == Manifest.load(source).config.digest
+    src = Manifest.load(source).provenance  # the rests' sampler and settle constants stay on record
+    assert m["provenance"]["settle"] == src["settle"] and m["provenance"]["sampler"] == src["sampler"]
+    assert m["provenance"]["bed"]["tissue_modulus_pa"] == 1000.0
     # the draws are re-based: tissue modulus a third of the source's, the rest as drawn
     np.testing.assert_allclose(_conditions(tmp_path / "soft")[1::7], _conditions(source)[1::7] / 3, rtol=1e-5)
     assert "re-pressed (pressurepose repress) from" in format_summary(summarize(tmp_path / "soft", examples=0))
