@@ -178,6 +178,8 @@ def repress(src: str | Path, out: str | Path, bed: BedSpec, *, progress: bool = 
     from pressurepose.pose.partitions import get_partition
 
     src, out = Path(src), Path(out)
+    if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:
+        raise BadInput(f"the output {out} lies inside the source {src}; choose a directory outside it")
     parts = find_datasets(src)
     if not parts:
         raise BadInput(f"{src} holds no pressurepose dataset")
