@@ -124,13 +124,11 @@ def format_summary(s: Summary) -> str:
                  f"mean {s.load_ratio_mean:.3f}")
     for bed in s.beds:
         lines.append(f"made on a given bed (generate --bed or repress): {bed}")
-    by_parent: dict[str, int] = {}
+    by_parent: dict[str, list[str]] = {}
     for src in s.repressed_from:
-        parent = str(Path(src).parent)
-        by_parent[parent] = by_parent.get(parent, 0) + 1
-    for parent, n in by_parent.items():
-        where = (f"{n} datasets under {parent}" if n > 1 else
-                 next(src for src in s.repressed_from if str(Path(src).parent) == parent))
+        by_parent.setdefault(str(Path(src).parent), []).append(src)
+    for parent, srcs in by_parent.items():
+        where = srcs[0] if len(srcs) == 1 else f"{len(srcs)} datasets under {parent}"
         lines.append(f"re-pressed (pressurepose repress) from the resting bodies of {where}")
     for inc in s.incomplete:
         lines.append(f"incomplete: {inc}")

@@ -72,7 +72,7 @@ def repress_config(config: GenerationConfig, bed: BedSpec) -> GenerationConfig:
         raise BadInput(f"partition {config.partition} props bodies on a wedge whose contact forces the "
                        f"dataset does not store; make it anew with generate --bed")
     check_press_only(config.bed_spec(), bed)
-    return dataclasses.replace(config, bed=json.dumps(bed.to_dict(), sort_keys=True))
+    return dataclasses.replace(config, bed=bed.to_dict())  # the config keeps its canonical JSON
 
 
 def repress_sample(body, sample: Sample, old: BedSpec, new: BedSpec) -> Sample | None:
@@ -180,22 +180,23 @@ def repress(src: str | Path, out: str | Path, bed: BedSpec, *, progress: bool = 
     src, out = Path(src), Path(out)
     if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:
         raise BadInput(f"the output {out} lies inside the source {src}; choose a directory outside it")
-    parts = find_datasets(src)
-    if not parts:
+    sources = {p: Manifest.load(p) for p in find_datasets(src)}
+    if not sources:
         raise BadInput(f"{src} holds no pressurepose dataset")
     if skip_wedge:
-        parts = [p for p in parts if not get_partition(Manifest.load(p).config.partition).wedge]
-        if not parts:
+        sources = {p: m for p, m in sources.items() if not get_partition(m.config.partition).wedge}
+        if not sources:
             raise BadInput(f"every dataset under {src} is of a wedge partition; nothing to re-press")
-    for p in parts:
+    for p, m in sources.items():
         try:
-            repress_config(Manifest.load(p).config, bed)
+            repress_config(m.config, bed)
         except BadInput as exc:
             raise BadInput(f"{p}: {exc}" + ("; --skip-wedge leaves such datasets out" if "wedge" in str(exc) else
                                             "")) from None
-    done = [Manifest.load(out / p.relative_to(src)).samples_done if (out / p.relative_to(src) / MANIFEST).exists()
-            else 0 for p in parts]
-    total = sum(Manifest.load(p).samples_done for p in parts)
-    with tqdm(total=total, initial=sum(done), unit="sample", desc="re-press", disable=not progress,
+    parts = list(sources)
+    done = sum(Manifest.load(out / p.relative_to(src)).samples_done for p in parts
+               if (out / p.relative_to(src) / MANIFEST).exists())
+    total = sum(m.samples_done for m in sources.values())
+    with tqdm(total=total, initial=done, unit="sample", desc="re-press", disable=not progress,
               dynamic_ncols=True, file=sys.stderr) as bar:
         return [repress_dataset(p, out / p.relative_to(src), bed, progress=bar.update) for p in parts]
