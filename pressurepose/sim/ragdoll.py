@@ -31,6 +31,7 @@ the settle reports, stay the fitted capsule's.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -67,6 +68,15 @@ DAMPING_PER_STIFFNESS_S = 15.0
 RELAXED_NECK_STIFFNESS = 10.0
 RELAXED_NECK_DAMPING_S = 0.3
 NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
+# A relaxed spine (default; the paper's 200 N m/rad with ``spine_stiffness=None``): the spine1-3
+# joints of the average body get this stiffness (N m/rad, scaled by mass; damping 15 x stiffness as
+# the paper's). The paper's springs hold the trunk in its standing curvature, so a supine trunk
+# rests as one rigid piece and carries its weight on the shoulders and calves as much as on the
+# pelvis (simulated pelvis band 24 % of the load against 29-31 % on PMD-I's supine people, issue
+# 12). Lying people do not hold their spine: with springs as soft as the hips' and shoulders' the
+# heavy pelvis sinks deepest, as on real mats (docs/physics.md, "A relaxed spine").
+RELAXED_SPINE_STIFFNESS = 20.0
+SPINE_JOINTS = tuple(JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3"))
 # hinge joints: SMPL joint -> SMPL local axis (knees x, elbows y), as in pressurepose.pose.limits
 HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
 # Penalty stiffness of the ball-joint limits, as a multiple of the joint's own stiffness. The settle
@@ -237,7 +247,8 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
 
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,
-                   masses: CapsuleMasses | None = None, limits=None, relaxed_neck: bool = True) -> RagdollParams:
+                   masses: CapsuleMasses | None = None, limits=None, relaxed_neck: bool = True,
+                   spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS) -> RagdollParams:
     """The ragdoll of ``body`` with shape ``betas`` (S,).
 
     gender: the mass table and the mean mass that scales the joint stiffness (default the body's);
@@ -245,6 +256,8 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
     limits: a ``pressurepose.pose.limits.JointLimits`` (default the nominal ``joint_limits()``).
     relaxed_neck: soft neck and head joints (:data:`RELAXED_NECK_STIFFNESS`) so the head rests on
     the bed; False: the paper's stiffness.
+    spine_stiffness: N m/rad of the spine1-3 joints for the average body (scaled by mass like the
+    others; default :data:`RELAXED_SPINE_STIFFNESS`); None: the paper's 200.
     """
     from pressurepose.pose.limits import joint_limits
 
@@ -268,6 +281,13 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
         neck = np.isin(joints, NECK_JOINTS)
         stiffness[neck] = scale * RELAXED_NECK_STIFFNESS
         damping[neck] = RELAXED_NECK_DAMPING_S * stiffness[neck]
+    if spine_stiffness is not None:
+        if isinstance(spine_stiffness, bool) or not isinstance(spine_stiffness, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(spine_stiffness) or spine_stiffness <= 0:
+            raise BadInput(f"spine_stiffness is {spine_stiffness!r}; expected a positive number of N m/rad or None")
+        spine = np.isin(joints, SPINE_JOINTS)
+        stiffness[spine] = scale * float(spine_stiffness)
+        damping[spine] = DAMPING_PER_STIFFNESS_S * stiffness[spine]
     com, inertia_full = joint_frame_mass_properties(masses, caps)
     principal, axes = np.linalg.eigh(inertia_full)
     axes = axes * np.where(np.linalg.det(axes) < 0, -1.0, 1.0)[:, None, None]  # proper rotations

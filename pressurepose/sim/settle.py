@@ -65,7 +65,7 @@ from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
-from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RagdollIndex, RagdollParams, add_ragdoll,
+from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex, RagdollParams, add_ragdoll,
                                       limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
                                       ragdoll_params, rotation_to_quat, write_params)
 
@@ -102,6 +102,8 @@ class SettleConfig:
     posture_check_steps: how often (steps) the posture class is checked while settling.
     relaxed_neck: soft neck and head joints so the head rests on the bed (default; False: the
         paper's stiffness, see :data:`pressurepose.sim.ragdoll.RELAXED_NECK_STIFFNESS`).
+    spine_stiffness: N m/rad of the spine joints for the average body (default a relaxed spine,
+        :data:`pressurepose.sim.ragdoll.RELAXED_SPINE_STIFFNESS`; None: the paper's 200).
     """
 
     timestep_s: float = 0.01
@@ -126,6 +128,7 @@ class SettleConfig:
     self_collision_tol_m: float = 0.002
     posture_check_steps: int = 10
     relaxed_neck: bool = True
+    spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS
 
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
@@ -140,6 +143,9 @@ class SettleConfig:
                 raise BadInput(f"settle {name} is {v!r}; expected a positive number")
         if self.cone not in _CONES:
             raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(_CONES)}")
+        v = self.spine_stiffness
+        if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+            raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, or None for the paper's")
         for name in ("drop_clearance_m", "self_collision_tol_m"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
@@ -460,7 +466,8 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
 
         caps = capsules_for(body, betas)
         masses = segment_masses(body, betas, g, caps=caps)
-        params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck)
+        params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck,
+                                spine_stiffness=config.spine_stiffness)
     sm = settle_model(bed, config, params, support=wedge)
     return _run(sm, params, betas, g, pose, transl)
 
@@ -615,13 +622,16 @@ def _in_support(sm: SettleModel) -> bool:
 
 def _support_forces(sm: SettleModel, wedge) -> tuple[np.ndarray, np.ndarray]:
     """(K, 3) contact points of the body on the wedge and (K,) the vertical force (N, >= 0) with
-    which the body presses the wedge down at each (last mj_forward)."""
+    which the body presses the wedge down at each (last mj_forward). Contacts that carry no normal
+    force (MuJoCo lists geoms closer than their margin) are left out: the body does not lean there."""
     m, d = sm.model, sm.data
     f6 = np.zeros(6)
     pts, fz = [], []
     n = wedge.normal
     for i in np.nonzero((d.contact.geom[: d.ncon] == sm.support_geom).any(axis=1))[0]:
         mujoco.mj_contactForce(m, d, int(i), f6)
+        if f6[0] <= 0.0:
+            continue
         f = d.contact.frame[i].reshape(3, 3).T @ f6[:3]
         if f @ n < 0:
             f = -f  # the force on the body, which the face pushes outward

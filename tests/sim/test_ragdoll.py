@@ -10,6 +10,7 @@ from pressurepose.body import BodyModel
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, posed_capsules
 from pressurepose.body.joints import joint_index
 from pressurepose.body.toy import toy_body_arrays
+from pressurepose.errors import BadInput
 from pressurepose.sim import ragdoll as rd
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.settle import SettleConfig, SettleModel, build_spec
@@ -198,13 +199,26 @@ def test_stiffness_scales_with_mass_and_damping_is_15x(body, params):
     relaxed = params.stiffness[neck] * rd.MEAN_MASS_KG["female"] / params.total_mass
     np.testing.assert_allclose(relaxed, rd.RELAXED_NECK_STIFFNESS)
     np.testing.assert_allclose(params.damping[neck], rd.RELAXED_NECK_DAMPING_S * params.stiffness[neck])
-    params = rd.ragdoll_params(body, BETAS, "female", relaxed_neck=False)  # the paper's
+    # the relaxed spine (default): spine1-3 as soft as the limbs' joints, damped as the paper's
+    spine = np.isin(CAPSULE_NAMES, ["spine", "spine1", "spine2"])  # capsules on the spine1-3 joints
+    relaxed = params.stiffness[spine] * rd.MEAN_MASS_KG["female"] / params.total_mass
+    np.testing.assert_allclose(relaxed, rd.RELAXED_SPINE_STIFFNESS)
+    firm = rd.ragdoll_params(body, BETAS, "female", spine_stiffness=50.0)
+    np.testing.assert_allclose(firm.stiffness[spine] / params.stiffness[spine], 50.0 / rd.RELAXED_SPINE_STIFFNESS)
+    np.testing.assert_array_equal(firm.stiffness[~spine], params.stiffness[~spine])
+    params = rd.ragdoll_params(body, BETAS, "female", relaxed_neck=False, spine_stiffness=None)  # the paper's
     np.testing.assert_allclose(params.damping, 15.0 * params.stiffness)
     k = dict(zip(CAPSULE_NAMES, params.stiffness * rd.MEAN_MASS_KG["female"] / params.total_mass))
     assert k["pelvis"] == 0.0
     assert (k["left_thigh"], k["left_calf"], k["left_foot"], k["spine1"], k["head"]) == pytest.approx(
         (6.0, 3.0, 6.0, 200.0, 200.0))
     assert (k["left_upper_arm"], k["left_forearm"], k["left_hand"]) == pytest.approx((4.0, 2.0, 4.0))
+
+
+@pytest.mark.parametrize("bad", [0.0, -3.0, float("nan"), True, "10"])
+def test_spine_stiffness_rejects_bad_values(body, bad):
+    with pytest.raises(BadInput, match="spine_stiffness"):
+        rd.ragdoll_params(body, BETAS, "female", spine_stiffness=bad)
 
 
 def test_model_mass_properties(body, params, solo):

@@ -9,6 +9,7 @@ import pytest
 from pressurepose.body import BodyModel
 from pressurepose.body.model import asset_path
 from pressurepose.body.capsules import capsules_for, posed_capsules
+from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
 from pressurepose.pose.limits import joint_limits
@@ -358,3 +359,37 @@ def test_a_supine_head_rests_on_the_bed():
             assert img.force[near].sum() > 0.5 * head_mass * G
     assert low[True] < 0.0             # the head capsule is sunk into the mattress
     assert low[True] < low[False] - 0.01
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+@pytest.mark.parametrize("seed", [3, 7])
+def test_a_relaxed_spine_lets_the_pelvis_sink(seed):
+    """A lying trunk does not hold its standing curvature: with the relaxed spine (default) the
+    heavy pelvis sinks deeper against the upper back than with the paper's stiff spine, and the
+    trunk bends at the spine joints instead of resting as one rigid piece."""
+    from pressurepose.pose.sampler import body_rng, sample_one
+
+    body = BodyModel("female")
+    drawn = sample_one("supine_straight_limbs", "f", body_rng(seed, 0), body=body)
+    caps = capsules_for(body, drawn.betas)
+    pelvis, chest = caps.names.index("pelvis"), caps.names.index("spine2")
+    spine = [JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3")]
+    sag, bend = {}, {}
+    for k in (None, FAST.spine_stiffness):  # the paper's 200 N m/rad, then the default
+        res = settle(body, drawn.betas, drawn.pose, drawn.transl, "female", BED,
+                     dataclasses.replace(FAST, spine_stiffness=k))
+        assert res.ok
+        assert res.bed_force_n == pytest.approx(res.mass_kg * G, rel=0.02)  # at rest: the bed carries it
+        ends, radius = posed_capsules(body, caps, drawn.betas, res.pose[None], res.transl[None])
+        low = ends[0, :, :, 2].min(axis=1) - radius
+        sag[k] = low[chest] - low[pelvis]  # grows as the pelvis sinks below the upper back
+        bend[k] = np.linalg.norm((res.pose - drawn.pose).reshape(24, 3)[spine], axis=1).sum()
+    assert FAST.spine_stiffness < 200.0
+    assert sag[FAST.spine_stiffness] > sag[None] + 0.002
+    assert bend[FAST.spine_stiffness] > 3 * bend[None]
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("inf"), True])
+def test_settle_config_rejects_a_bad_spine_stiffness(bad):
+    with pytest.raises(BadInput, match="spine_stiffness"):
+        SettleConfig(spine_stiffness=bad)

@@ -137,8 +137,11 @@ def test_a_propped_body_rests_on_the_bed_and_the_wedge_which_carry_its_weight(fe
     assert r.bed_force_n + r.wedge_force_z.sum() == pytest.approx(r.mass_kg * G, rel=0.01)
     side = np.sign(roll_angle(drawn.pose))
     assert math.radians(5) <= side * roll_angle(r.pose) <= math.radians(100)  # still on its side
-    # the body leans on the face: contact points lie on it
-    assert np.allclose((r.wedge_points - r.wedge.toe) @ r.wedge.normal, 0.0, atol=0.01)
+    # the body leans on the face: the contacts that hold it up lie on it (a trunk bent over the
+    # wedge's top edge may also touch the edge, pushing it sideways only)
+    loaded = r.wedge_force_z > 0
+    assert loaded.sum() >= 1
+    assert np.allclose((r.wedge_points[loaded] - r.wedge.toe) @ r.wedge.normal, 0.0, atol=0.01)
 
 
 def test_sampled_propped_bodies_keep_their_limbs_out_of_the_wedge(female):
