@@ -87,8 +87,8 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
 
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
-                 limbs_on_bed: bool = False, sampler=None, conditions=None, timings: dict | None = None
-                 ) -> Simulated | str:
+                 limbs_on_bed: bool = False, sampler=None, conditions=None, timings: dict | None = None,
+                 settle_config=None) -> Simulated | str:
     """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
     pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
     (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from
@@ -102,7 +102,8 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     (:func:`pressurepose.sim.wedge.relieved_body`), and the mat reads both (:func:`~pressurepose.sim.wedge.with_wedge`).
 
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
-    ``press``: what ran) and the settle's ``steps`` (for benchmarks)."""
+    ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
+    :class:`~pressurepose.sim.settle.SettleConfig` (default: its defaults, which datasets use)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
@@ -115,7 +116,8 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
                        config=SamplerConfig() if sampler is None else sampler)
     t1 = time.process_time()
-    rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, wedge=get_partition(partition).wedge)
+    rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, config=settle_config,
+                  wedge=get_partition(partition).wedge)
     t2 = time.process_time()
     clock.update(sample=t1 - t0, settle=t2 - t1, press=0.0, steps=int(rest.steps))
     if not rest.ok:
