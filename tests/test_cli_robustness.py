@@ -313,7 +313,7 @@ class _Image:
 
 def _fake_simulate_one(calls):
     """A stand-in for simulate_one: deterministic in its generator, rejects every third attempt 0."""
-    def fake(body, bed, partition, gender, rng, limbs_on_bed=False, sampler=None):
+    def fake(body, bed, partition, gender, rng, limbs_on_bed=False, sampler=None, settle_config=None):
         calls.append(1)
         draw = rng.uniform()
         if draw < 0.3:
@@ -334,8 +334,8 @@ def test_simulate_keeps_finished_bodies_when_killed_and_resumes(tmp_path, capsys
 
     fake, n_bodies = _fake_simulate_one(calls), []
 
-    def dies_at_body_3(body, bed, partition, gender, rng, *rest):
-        out = fake(body, bed, partition, gender, rng, *rest)
+    def dies_at_body_3(body, bed, partition, gender, rng, *rest, **kw):
+        out = fake(body, bed, partition, gender, rng, *rest, **kw)
         if not isinstance(out, str):
             n_bodies.append(1)
             if len(n_bodies) == 4:

@@ -46,6 +46,7 @@ def _shards(text: str) -> list[int]:
 
 def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     from pressurepose.pose.commands import add_body_arguments
+    from pressurepose.sim.commands import add_settle_argument
 
     p.description = (
         "Generate a labelled synthetic dataset (HDF5 shards + manifest.json) into --out. Each sample "
@@ -66,6 +67,7 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--limbs-on-bed", action="store_true",
                    help="start elbows, wrists, knees and ankles over the mattress (the paper's 'plo')")
     add_body_arguments(g)
+    add_settle_argument(g)
     g.add_argument("--randomize", action="store_true",
                    help="domain randomisation: draw the mattress and tissue stiffness, sensor gain and "
                         "threshold and the mat's offset and rotation per sample (docs/physics.md); each "
@@ -116,7 +118,7 @@ def run_generate(args: argparse.Namespace) -> int:
     bed = bed_for(args.mat, args.bed)
     common = dict(mat=bed.mat.name, bed=bed.to_dict() if args.bed else "", shard_size=args.shard_size,
                   producer=args.producer, max_attempts=args.max_attempts, options=dict(args.option),
-                  randomize=bool(args.randomize), **body_settings(args))
+                  randomize=bool(args.randomize), settle=args.settle, **body_settings(args))
     out = Path(args.out)
     if args.recipe:
         if args.partition or args.gender or args.count is not None or args.limbs_on_bed:

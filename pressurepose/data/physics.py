@@ -35,6 +35,13 @@ def sampler_config(config: GenerationConfig):
                          across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m)
 
 
+def settle_config(config: GenerationConfig):
+    """The settle's :class:`~pressurepose.sim.settle.SettleConfig` for a dataset's config."""
+    from pressurepose.sim.settle import settle_preset
+
+    return settle_preset(config.settle)
+
+
 def provenance(config: GenerationConfig) -> dict:
     """Every setting of the physics a dataset is made with, as JSON-ready values: the sampler's
     (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``), for a
@@ -42,9 +49,7 @@ def provenance(config: GenerationConfig) -> dict:
     the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
-    from pressurepose.sim.settle import SettleConfig
-
-    record = {"sampler": dataclasses.asdict(sampler_config(config)), "settle": dataclasses.asdict(SettleConfig()),
+    record = {"sampler": dataclasses.asdict(sampler_config(config)), "settle": dataclasses.asdict(settle_config(config)),
               "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges
@@ -70,7 +75,8 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
         from pressurepose.sim.randomize import draw_conditions
 
         conditions = draw_conditions(rng, bed)
-    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler, conditions)
+    sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler, conditions,
+                       settle_config=settle_config(config))
     if isinstance(sim, str):
         return Rejected(sim)
     betas = np.zeros(10)

@@ -189,9 +189,11 @@ class GenerationConfig:
     (:mod:`pressurepose.sim.randomize`). bed: the bed the bodies lie on, as the canonical JSON
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
     calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
-    does not change which bodies are drawn, so two beds with one seed give paired datasets. A
-    manifest written before these existed reads back with :data:`LEGACY_SAMPLING` (the paper's
-    sampler, no randomisation) and the default bed.
+    does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
+    how bodies come to rest (:data:`pressurepose.sim.settle.SETTLES`: 'relaxed', the default, or
+    'paper', the paper's joint springs); like the bed it changes no draw. A manifest written before
+    these existed reads back with :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation),
+    the default bed and the 'relaxed' settle (its provenance records the constants that made it).
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
     randomisation settings, i) for its random draws, so ``count`` and ``shard_size`` do not change it.
@@ -214,6 +216,7 @@ class GenerationConfig:
     across_sd_m: float = 0.03
     across_sd_lateral_m: float = 0.08
     bed: str = ""
+    settle: str = "relaxed"
 
     def __post_init__(self):
         object.__setattr__(self, "partition", check_partition(self.partition))
@@ -243,6 +246,10 @@ class GenerationConfig:
             if not isinstance(v, (int, float, np.integer, np.floating)) or isinstance(v, bool) or not 0 <= v <= 0.5:
                 raise BadInput(f"{name} = {v!r}; expected a spread in metres from 0 to 0.5")
             object.__setattr__(self, name, float(v))
+        from pressurepose.sim.settle import SETTLES
+
+        if self.settle not in SETTLES:
+            raise BadInput(f"settle = {self.settle!r}; expected one of {', '.join(SETTLES)}")
         object.__setattr__(self, "mat", get_mat(self.mat).name)
         object.__setattr__(self, "bed", _canonical_bed(self.bed, self.mat))
         if not isinstance(self.producer, str) or not self.producer:
@@ -291,6 +298,8 @@ class GenerationConfig:
             d["bed"] = json.loads(self.bed)
         else:
             del d["bed"]  # the default bed: configs written before beds could be given keep their digest
+        if self.settle == "relaxed":
+            del d["settle"]  # likewise the default settle
         return d
 
     def to_json(self) -> str:

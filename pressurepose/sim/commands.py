@@ -170,6 +170,14 @@ def _plot_history(ax, res):
 
 
 
+def add_settle_argument(p) -> None:
+    """``--settle`` (shared by simulate and generate)."""
+    p.add_argument("--settle", choices=("relaxed", "paper"), default="relaxed",
+                   help="how bodies come to rest: neck and spine relax so the head and the heavy pelvis sink "
+                        "onto the bed as people lie (relaxed, default), or the paper's joint springs throughout, "
+                        "which hold the head and trunk in their standing shape (paper); docs/physics.md")
+
+
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
     from pressurepose.pose.commands import add_body_arguments
 
@@ -182,6 +190,7 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
                         "(proximal, default) or 0.1 m below to 0.3 m above the surface the body lies on "
                         "(bed: fewer bodies on their side roll over while settling; see `sample --help`)")
     add_body_arguments(p)
+    add_settle_argument(p)
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed [0]")
     p.add_argument("--mat", default=None, help="mat preset [boditrak_bt3510, or the --bed file's]")
@@ -251,6 +260,7 @@ def run_simulate(args) -> int:
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import bed_for
+    from pressurepose.sim.settle import settle_preset
     from pressurepose.sim.simulate import simulate_one
 
     out = check_output_path(args.out, "--out", suffixes=(".npz",))
@@ -263,6 +273,7 @@ def run_simulate(args) -> int:
     gender = canonical_gender(args.gender)[0]
     body, bed = BodyModel(gender), bed_for(args.mat, args.bed)
     sampler = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
+    settle_config = settle_preset(args.settle)
     # everything but the outputs and the count decides the bodies: a partial file of another command is refused
     run_key = json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_")
                              and k not in ("out", "plot", "count", "mat", "bed")}, "partition": partition,
@@ -274,7 +285,8 @@ def run_simulate(args) -> int:
     for i in tqdm(range(len(done), args.count), desc="simulate", unit="body", initial=len(done), total=args.count):
         for attempt in range(100):
             sim = simulate_one(body, bed, partition, gender,
-                               np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler)
+                               np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler,
+                               settle_config=settle_config)
             if not isinstance(sim, str):
                 done.append(_record(sim))
                 break

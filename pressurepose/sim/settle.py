@@ -152,6 +152,20 @@ class SettleConfig:
                 raise BadInput(f"settle {name} is {v!r}; expected zero or a positive number")
 
 
+# The settles a dataset can be made with (``GenerationConfig.settle``, ``generate --settle``).
+SETTLES = ("relaxed", "paper")
+
+
+def settle_preset(name: str) -> SettleConfig:
+    """The :class:`SettleConfig` of a named settle: 'relaxed' (the defaults: neck and spine relax so
+    bodies rest as people lie) or 'paper' (the paper's joint springs throughout)."""
+    if name == "relaxed":
+        return SettleConfig()
+    if name == "paper":
+        return SettleConfig(relaxed_neck=False, spine_stiffness=None)
+    raise BadInput(f"settle {name!r} is not known; expected one of {', '.join(SETTLES)}")
+
+
 @dataclass(frozen=True, eq=False)
 class SettleResult:
     """Outcome of settling one body.

@@ -122,6 +122,55 @@ def test_a_config_carries_its_bed(tmp_path):
         GenerationConfig(partition="general", gender="f", bed="{")
 
 
+def test_a_config_carries_its_settle(tmp_path):
+    """`settle` picks the settle's constants ('relaxed' by default, omitted from the config so that
+    configs keep their digests; 'paper': the paper's springs), is in the provenance, and changes no
+    draw: one seed gives paired datasets."""
+    import json
+
+    from pressurepose.data import physics
+    from pressurepose.data.pipeline import open_output
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import MANIFEST
+    from pressurepose.errors import BadInput
+    from pressurepose.sim.settle import SettleConfig
+
+    plain = GenerationConfig(partition="general_supine", gender="f", count=2, seed=3)
+    paper = GenerationConfig(partition="general_supine", gender="f", count=2, seed=3, settle="paper")
+    assert "settle" not in plain.to_dict() and physics.settle_config(plain) == SettleConfig()
+    assert physics.settle_config(paper) == SettleConfig(relaxed_neck=False, spine_stiffness=None)
+    assert paper.stream_key == plain.stream_key and paper.digest != plain.digest
+    assert GenerationConfig.from_json(paper.to_json()) == paper
+    open_output(tmp_path, paper)
+    m = json.loads((tmp_path / MANIFEST).read_text())
+    assert m["config"]["settle"] == "paper"
+    assert m["provenance"]["settle"]["spine_stiffness"] is None and m["provenance"]["settle"]["relaxed_neck"] is False
+    assert physics.provenance(plain)["settle"]["spine_stiffness"] == SettleConfig().spine_stiffness
+    with pytest.raises(BadInput, match="settle = 'stiff'; expected one of relaxed, paper"):
+        GenerationConfig(partition="general", gender="f", settle="stiff")
+
+
+@pytest.mark.slow
+def test_generate_with_the_papers_settle(tmp_path):
+    """`generate --settle paper` draws the same bodies as the default and rests them with the paper's
+    stiff springs: the supine trunk bends less at the spine."""
+    from pressurepose.body.joints import JOINT_NAMES
+    from pressurepose.cli import main
+    from pressurepose.data.dataset import DatasetReader
+
+    common = ["generate", "--partition", "supine_straight_limbs", "--gender", "f", "--count", "2", "--seed", "3",
+              "--no-progress"]
+    assert main(common + ["--out", str(tmp_path / "relaxed")]) == 0
+    assert main(common + ["--out", str(tmp_path / "paper"), "--settle", "paper"]) == 0
+    a, b = (DatasetReader(tmp_path / k).load_arrays(("betas", "pose"), label_dtype=np.float64)
+            for k in ("relaxed", "paper"))
+    np.testing.assert_array_equal(a["betas"], b["betas"])  # paired: the same bodies drawn
+    spine = [JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3")]
+    bend = {k: np.linalg.norm(v["pose"].reshape(-1, 24, 3)[:, spine], axis=-1).sum() for k, v in (("relaxed", a),
+                                                                                                  ("paper", b))}
+    assert bend["relaxed"] > bend["paper"]
+
+
 @pytest.mark.slow
 def test_generate_on_a_bed_file(tmp_path):
     """`generate --bed FILE`: the same bodies drawn as on the default bed, pressed on a mattress four

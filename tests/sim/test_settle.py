@@ -393,3 +393,19 @@ def test_a_relaxed_spine_lets_the_pelvis_sink(seed):
 def test_settle_config_rejects_a_bad_spine_stiffness(bad):
     with pytest.raises(BadInput, match="spine_stiffness"):
         SettleConfig(spine_stiffness=bad)
+
+
+def test_settle_presets():
+    import argparse
+
+    from pressurepose.sim.commands import add_settle_argument
+    from pressurepose.sim.settle import SETTLES, settle_preset
+
+    assert settle_preset("relaxed") == SettleConfig()
+    paper = settle_preset("paper")
+    assert paper.spine_stiffness is None and paper.relaxed_neck is False
+    with pytest.raises(BadInput, match="settle 'floppy' is not known"):
+        settle_preset("floppy")
+    p = argparse.ArgumentParser()
+    add_settle_argument(p)
+    assert tuple(p._option_string_actions["--settle"].choices) == SETTLES
