@@ -49,8 +49,8 @@ def provenance(config: GenerationConfig) -> dict:
     the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
-    record = {"sampler": dataclasses.asdict(sampler_config(config)), "settle": dataclasses.asdict(settle_config(config)),
-              "bed": config.bed_spec().to_dict()}
+    record = {"sampler": dataclasses.asdict(sampler_config(config)),
+              "settle": dataclasses.asdict(settle_config(config)), "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges
 

@@ -73,8 +73,9 @@ NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
 # the paper's). The paper's springs hold the trunk in its standing curvature, so a supine trunk
 # rests as one rigid piece and carries its weight on the shoulders and calves as much as on the
 # pelvis (simulated pelvis band 24 % of the load against 29-31 % on PMD-I's supine people, issue
-# 12). Lying people do not hold their spine: with springs as soft as the hips' and shoulders' the
-# heavy pelvis sinks deepest, as on real mats (docs/physics.md, "A relaxed spine").
+# 12). Lying people do not hold their spine: with springs ten times softer the trunk bends and the
+# heavy pelvis sinks deepest, as on real mats (docs/physics.md, "Relaxed spine"; the value was
+# chosen among 200, 40, 20, 10 and 4 on PMD-I's region shares, benchmarks/bench_spine.py).
 RELAXED_SPINE_STIFFNESS = 20.0
 SPINE_JOINTS = tuple(JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3"))
 # hinge joints: SMPL joint -> SMPL local axis (knees x, elbows y), as in pressurepose.pose.limits

@@ -65,9 +65,9 @@ from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
-from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex, RagdollParams, add_ragdoll,
-                                      limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec, qpos_to_pose,
-                                      ragdoll_params, rotation_to_quat, write_params)
+from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex,
+                                      RagdollParams, add_ragdoll, limit_torques, local_to_smpl, pose_to_qpos,
+                                      quat_to_rotvec, qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
             "support_overlap")
@@ -144,8 +144,9 @@ class SettleConfig:
         if self.cone not in _CONES:
             raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(_CONES)}")
         v = self.spine_stiffness
-        if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-            raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, or None for the paper's")
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
+            raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, "
+                           f"or None for the paper's")
         for name in ("drop_clearance_m", "self_collision_tol_m"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
