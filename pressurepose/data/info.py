@@ -29,6 +29,7 @@ class Summary:
     incomplete: list[str] = field(default_factory=list)
     beds: list[str] = field(default_factory=list)  # the beds given to `generate --bed`, one line each
     repressed_from: list[str] = field(default_factory=list)  # sources of `repress`ed datasets
+    settles: list[str] = field(default_factory=list)  # how the bodies came to rest, one line each
     pressure_mean: float = 0.0        # mmHg over all taxels
     pressure_mean_loaded: float = 0.0  # mmHg over taxels with pressure > 0
     pressure_max: float = 0.0
@@ -66,6 +67,9 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
                     + " ".join(f"{v:.2g}" for v in b.tissue_bone_fraction))
             if line not in s.beds:
                 s.beds.append(line)
+        settle = settle_line(m.provenance.get("settle"))
+        if settle and settle not in s.settles:
+            s.settles.append(settle)
         source = m.provenance.get("repressed_from")
         if isinstance(source, dict) and source.get("path") not in s.repressed_from:
             s.repressed_from.append(str(source.get("path")))
@@ -103,6 +107,17 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
     return s
 
 
+def settle_line(record) -> str:
+    """The joint springs a manifest's settle provenance (``SettleConfig`` as a dict) rested bodies
+    with, in words ("" when the manifest has none, as for non-physics producers)."""
+    if not isinstance(record, dict):
+        return ""
+    neck = "relaxed neck" if record.get("relaxed_neck", False) else "the paper's stiff neck"
+    k = record.get("spine_stiffness")  # absent: made before the spine could relax
+    spine = "the paper's stiff spine" if k is None else f"relaxed spine ({k:g} N m/rad)"
+    return f"{neck}, {spine}"
+
+
 def format_summary(s: Summary) -> str:
     rows, cols = s.shape
     lines = [f"{s.root}: {s.datasets} dataset(s), {s.samples} samples, mat {s.mat} ({rows} x {cols})", ""]
@@ -122,6 +137,8 @@ def format_summary(s: Summary) -> str:
                  f"over loaded taxels, 99th percentile {s.pressure_p99:.1f}, max {s.pressure_max:.1f}")
     lines.append(f"contact: {100.0 * s.contact_fraction:.1f}% of taxels; force on the mat / body weight: "
                  f"mean {s.load_ratio_mean:.3f}")
+    for settle in s.settles:
+        lines.append(f"settled with: {settle}")
     for bed in s.beds:
         lines.append(f"made on a given bed (generate --bed or repress): {bed}")
     by_parent: dict[str, list[str]] = {}

@@ -169,6 +169,26 @@ def test_generate_with_the_papers_settle(tmp_path):
     bend = {k: np.linalg.norm(v["pose"].reshape(-1, 24, 3)[:, spine], axis=-1).sum() for k, v in (("relaxed", a),
                                                                                                   ("paper", b))}
     assert bend["relaxed"] > bend["paper"]
+    from pressurepose.data.info import format_summary, summarize
+
+    assert "settled with: the paper's stiff neck, the paper's stiff spine" in format_summary(
+        summarize(tmp_path / "paper", examples=0))
+
+
+def test_info_says_how_bodies_were_settled():
+    import dataclasses
+
+    from pressurepose.data.info import settle_line
+    from pressurepose.sim.ragdoll import RELAXED_SPINE_STIFFNESS
+    from pressurepose.sim.settle import SettleConfig, settle_preset
+
+    assert settle_line(dataclasses.asdict(SettleConfig())) == \
+        f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad)"
+    assert settle_line(dataclasses.asdict(settle_preset("paper"))) == "the paper's stiff neck, the paper's stiff spine"
+    before = dataclasses.asdict(SettleConfig())
+    del before["spine_stiffness"]  # a manifest written before the spine could relax
+    assert settle_line(before) == "relaxed neck, the paper's stiff spine"
+    assert settle_line(None) == ""
 
 
 @pytest.mark.slow
