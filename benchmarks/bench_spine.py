@@ -119,8 +119,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     names = [s.strip() for s in args.stiffness.split(",") if s.strip()]
     for n in names:
-        if n != PAPER and not (stiffness_of(n) > 0):
-            raise SystemExit(f"--stiffness {n!r}: expected positive numbers or 'paper'")
+        try:
+            ok = n == PAPER or 0 < stiffness_of(n) < float("inf")
+        except ValueError:
+            ok = False
+        if not ok:
+            raise SystemExit(f"--stiffness {n!r}: expected positive numbers of N m/rad or 'paper'")
     mat = get_mat("boditrak_bt3510")
     real = load_real(args.data, mat)
     group = subject_range(args.fit_subjects)

@@ -103,7 +103,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
 
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
     ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
-    :class:`~pressurepose.sim.settle.SettleConfig` (default: its defaults, which datasets use)."""
+    :class:`~pressurepose.sim.settle.SettleConfig` (default: its defaults, the "relaxed" settle)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
