@@ -1,7 +1,8 @@
 """The settle's spine stiffness judged on real people's region shares (issue 12).
 
     .venv/bin/python -m benchmarks.bench_spine [--data ../shared/data/pmd-experiment-i] [--count 50]
-        [--seed 21] [--stiffness paper,40,20,10,4] [--fit-subjects 1-7] [--out runs/bench_spine] [--no-write]
+        [--seed 21] [--stiffness paper,40,20,10,4] [--fit-subjects 1-7] [--coarse-factor 2]
+        [--out runs/bench_spine] [--no-write]
 
 1. For each spine stiffness (N m/rad of the spine1-3 joints for the average body; ``paper`` is the
    paper's 200), settles and presses ``general_supine`` and ``general_lateral`` bodies, ``--count``
@@ -45,15 +46,17 @@ def stiffness_of(name: str) -> float | None:
     return None if name == PAPER else float(name)
 
 
-def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int, stiffness: float | None) -> None:
+def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int, stiffness: float | None,
+                 coarse_factor: float = SettleConfig.coarse_factor) -> None:
     """``count`` accepted bodies of (partition, gender), drawn as ``generate --seed`` draws them,
-    settled with ``stiffness``; written as a ``simulate``-style .npz."""
+    settled with ``stiffness`` and ``coarse_factor`` (the settle's step after touching, x 0.01 s);
+    written as a ``simulate``-style .npz."""
     from pressurepose.data.physics import sampler_config, setup
     from pressurepose.sim.simulate import simulate_one
 
     config = GenerationConfig(partition=partition, gender=gender, count=count, seed=seed)
     body, bed = setup(config)
-    settle_config = SettleConfig(spine_stiffness=stiffness)
+    settle_config = SettleConfig(spine_stiffness=stiffness, coarse_factor=coarse_factor)
     keep = {k: [] for k in ("pressure", "force", "pose", "mass", "height")}
     for i in tqdm(range(count), desc=f"spine {path.parent.name}: {path.stem}"):
         for attempt in range(config.max_attempts):
@@ -73,16 +76,17 @@ def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int,
     atomic_write(path, write)
 
 
-def simulated(out: Path, name: str, count: int, seed: int) -> ImageSet:
+def simulated(out: Path, name: str, count: int, seed: int,
+              coarse_factor: float = SettleConfig.coarse_factor) -> ImageSet:
     """The candidate's images (made if missing), every partition and gender in one set."""
-    folder = out / name
+    folder = out / (name if coarse_factor == SettleConfig.coarse_factor else f"{name}_step{coarse_factor:g}x")
     folder.mkdir(parents=True, exist_ok=True)
     sets = []
     for partition in PARTITIONS:
         for g in ("f", "m"):
             path = folder / f"{partition}_{g}.npz"
             if not path.is_file():
-                simulate_set(path, partition, g, count, seed, stiffness_of(name))
+                simulate_set(path, partition, g, count, seed, stiffness_of(name), coarse_factor)
             sets.append(load_synthetic(path))
     cat = lambda k: np.concatenate([getattr(s, k) for s in sets])  # noqa: E731
     return ImageSet(f"simulated (spine {name})", cat("pressure"), cat("posture"), sets[0].mat, cat("force"),
@@ -114,6 +118,9 @@ def main(argv=None) -> int:
     ap.add_argument("--stiffness", default="paper,40,20,10,4",
                     help="spine stiffnesses to compare, N m/rad for the average body ('paper': 200)")
     ap.add_argument("--fit-subjects", default="1-7", help="one group of subjects; the others form the second")
+    ap.add_argument("--coarse-factor", type=float, default=SettleConfig.coarse_factor,
+                    help="the settle's step after touching down, x 0.01 s (1: the fine step throughout, as "
+                         f"before session 12) [{SettleConfig.coarse_factor:g}]")
     ap.add_argument("--out", type=Path, default=Path("runs/bench_spine"))
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
@@ -136,7 +143,7 @@ def main(argv=None) -> int:
             "gap, pp (90 % interval) | lateral RMS gap, pp |")
     matched, unmatched = [head, "|" + "---|" * 10], [head, "|" + "---|" * 10]
     for n in names:
-        sim = simulated(args.out, n, args.count, args.seed)
+        sim = simulated(args.out, n, args.count, args.seed, args.coarse_factor)
         label = "200 (paper)" if n == PAPER else n
         for who, r in people:
             matched.append(row(label, who, r, sim, match=True))
@@ -144,7 +151,8 @@ def main(argv=None) -> int:
     text = "\n".join([
         "### The settle's spine stiffness against real region shares (issue 12; `benchmarks/bench_spine.py`)", "",
         f"`python -m benchmarks.bench_spine --count {args.count} --seed {args.seed} --stiffness {args.stiffness} "
-        f"--fit-subjects {args.fit_subjects}`; {platform.machine()}, {datetime.date.today()}.", "",
+        f"--fit-subjects {args.fit_subjects} --coarse-factor {args.coarse_factor:g}`; {platform.machine()}, "
+        f"{datetime.date.today()}.", "",
         f"Simulated: {', '.join(PARTITIONS)}, {args.count} per gender, seed {args.seed}, drawn as `generate` draws "
         "them and settled with each spine stiffness (spine1-3 joints, N m/rad for the average body, scaled by mass; "
         "damping 15 x stiffness); every other setting the default. Real: PMD-I's flat-bed supine and lateral images. "

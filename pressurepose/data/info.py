@@ -108,14 +108,17 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
 
 
 def settle_line(record) -> str:
-    """The joint springs a manifest's settle provenance (``SettleConfig`` as a dict) rested bodies
-    with, in words ("" when the manifest has none, as for non-physics producers)."""
+    """The joint springs and time step a manifest's settle provenance (``SettleConfig`` as a dict)
+    rested bodies with, in words ("" when the manifest has none, as for non-physics producers)."""
     if not isinstance(record, dict):
         return ""
     neck = "relaxed neck" if record.get("relaxed_neck", False) else "the paper's stiff neck"
     k = record.get("spine_stiffness")  # absent: made before the spine could relax
     spine = "the paper's stiff spine" if k is None else f"relaxed spine ({k:g} N m/rad)"
-    return f"{neck}, {spine}"
+    dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: before session 12
+    step = (f"step {dt:g} s throughout" if factor == 1.0 else
+            f"step {dt:g} s, {factor * dt:g} s from {record.get('coarse_after_steps')} steps after touching")
+    return f"{neck}, {spine}, {step}"
 
 
 def format_summary(s: Summary) -> str:

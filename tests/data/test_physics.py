@@ -171,7 +171,8 @@ def test_generate_with_the_papers_settle(tmp_path):
     assert bend["relaxed"] > bend["paper"]
     from pressurepose.data.info import format_summary, summarize
 
-    assert "settled with: the paper's stiff neck, the paper's stiff spine" in format_summary(
+    assert "settled with: the paper's stiff neck, the paper's stiff spine, step 0.01 s, 0.02 s from 150 steps " \
+        "after touching" in format_summary(
         summarize(tmp_path / "paper", examples=0))
 
 
@@ -182,12 +183,16 @@ def test_info_says_how_bodies_were_settled():
     from pressurepose.sim.ragdoll import RELAXED_SPINE_STIFFNESS
     from pressurepose.sim.settle import SettleConfig, settle_preset
 
+    coarse = "step 0.01 s, 0.02 s from 150 steps after touching"
     assert settle_line(dataclasses.asdict(SettleConfig())) == \
-        f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad)"
-    assert settle_line(dataclasses.asdict(settle_preset("paper"))) == "the paper's stiff neck, the paper's stiff spine"
+        f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad), {coarse}"
+    assert settle_line(dataclasses.asdict(settle_preset("paper"))) == \
+        f"the paper's stiff neck, the paper's stiff spine, {coarse}"
+    assert settle_line(dataclasses.asdict(SettleConfig(coarse_factor=1.0))).endswith(", step 0.01 s throughout")
     before = dataclasses.asdict(SettleConfig())
-    del before["spine_stiffness"]  # a manifest written before the spine could relax
-    assert settle_line(before) == "relaxed neck, the paper's stiff spine"
+    for key in ("spine_stiffness", "coarse_factor", "coarse_after_steps"):
+        del before[key]  # a manifest written before the spine could relax and the step grow
+    assert settle_line(before) == "relaxed neck, the paper's stiff spine, step 0.01 s throughout"
     assert settle_line(None) == ""
 
 

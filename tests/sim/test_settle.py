@@ -24,6 +24,8 @@ from pressurepose.sim.settle import BODY_PART_CAPSULES, SettleConfig, calibrate_
 G = 9.81
 BED = get_bed()
 FAST = SettleConfig()
+FINE = dataclasses.replace(FAST, coarse_factor=1.0)  # 0.01 s throughout, as before session 12
+COARSE = dataclasses.replace(FAST, coarse_after_steps=10)  # the step doubles soon after touching
 BETAS = np.zeros(10)
 
 
@@ -256,11 +258,17 @@ def test_lateral_body_rests_on_its_side_not_on_capsule_caps_outside_it():
     assert rolled.status == "posture_changed" and rolled.posture == "prone"
 
 
-def test_settle_is_deterministic_whatever_ran_before(body, supine):
-    pose, transl, first = supine
+@pytest.mark.parametrize("early_coarse", [False, True])
+def test_settle_is_deterministic_whatever_ran_before(body, early_coarse):
+    """The compiled model is shared by every body settled with one config; with the coarse step it
+    changes its time step mid-settle, so the next body must start at the fine step again."""
+    config = COARSE if early_coarse else FAST
+    pose = lying()
+    transl = centre_transl(body, pose)
+    first = settle(body, BETAS, pose, transl, "female", BED, config)
     other = lying(np.pi, 0.3)
-    settle(body, BETAS + 1.0, other, centre_transl(body, other), "male", BED, FAST)
-    again = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    settle(body, BETAS + 1.0, other, centre_transl(body, other), "male", BED, config)
+    again = settle(body, BETAS, pose, transl, "female", BED, config)
     assert again.steps == first.steps and again.status == first.status
     np.testing.assert_array_equal(again.pose, first.pose)
     np.testing.assert_array_equal(again.transl, first.transl)
@@ -409,3 +417,45 @@ def test_settle_presets():
     p = argparse.ArgumentParser()
     add_settle_argument(p)
     assert tuple(p._option_string_actions["--settle"].choices) == SETTLES
+
+
+# ------------------------------------------------------------------------------ the coarse step
+
+@pytest.mark.parametrize("bad", [0.5, 4.5, float("nan"), True, "2"])
+def test_settle_config_rejects_a_bad_coarse_step(bad):
+    with pytest.raises(BadInput, match="coarse_factor"):
+        SettleConfig(coarse_factor=bad)
+    with pytest.raises(BadInput, match="coarse_after_steps"):
+        SettleConfig(coarse_after_steps=0)
+
+
+def test_a_coarse_step_rests_a_body_where_the_fine_one_does(body):
+    """The longer step after the pelvis touches changes the integration, not the physics: the body
+    rests in the same place within a centimetre and the bed carries its weight (what it saves is
+    measured by benchmarks/bench_settle.py --agreement on sampled bodies, whose limbs creep for
+    hundreds of steps; this body rests soon after the switch)."""
+    pose = lying()
+    transl = centre_transl(body, pose)
+    fine = settle(body, BETAS, pose, transl, "female", BED, FINE)
+    coarse = settle(body, BETAS, pose, transl, "female", BED, COARSE)
+    assert coarse.ok and fine.ok
+    assert coarse.touch_step == fine.touch_step
+    assert fine.steps > coarse.touch_step + COARSE.coarse_after_steps  # the switch happened
+    assert coarse.bed_force_n == pytest.approx(coarse.mass_kg * G, rel=0.01)
+    # a rest is where motion fell under 0.05 m/s, not an exact equilibrium: capsules agree within the
+    # 1-2 cm that two immaterially different starts give (bench:settle_agreement's noise floor)
+    move = np.linalg.norm(coarse.capsules - fine.capsules, axis=-1)
+    assert move.max() < 0.02 and np.median(move) < 0.005
+    assert coarse.posture == "supine"
+
+
+def test_the_step_budget_is_kept_in_seconds_with_a_coarse_step(body, supine):
+    """A body that cannot rest within the budget runs as many simulated seconds as with the fine
+    step, in fewer steps."""
+    pose, transl, _ = supine
+    budget = dataclasses.replace(COARSE, max_steps=150, coarse_after_steps=10, rest_speed_m_s=1e-6)
+    res = settle(body, BETAS, pose, transl, "female", BED, budget)
+    assert res.status == "not_settled"
+    fine_steps = res.touch_step + budget.coarse_after_steps
+    expected = fine_steps + (budget.max_steps - fine_steps) / 2  # the rest of 1.5 s at 0.02 s
+    assert abs(res.steps - expected) <= 1
