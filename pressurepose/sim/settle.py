@@ -8,7 +8,7 @@ not let the trunk build momentum; it then runs until the resting criterion (the
 fastest capsule point slower than 0.05 m/s and accelerating less than 0.5 m/s^2) has held for
 ``rest_hold_steps`` consecutive steps (0.2 s), or gives up after 20 s (2000 steps of dt = 0.01 s).
 Not the paper's: 150 steps after the pelvis touches, the step doubles to 0.02 s for the slow rest
-of the settle (``SettleConfig.coarse_factor``), which saves a fifth of the settle's CPU; the
+of the settle (``SettleConfig.coarse_factor``), which saves a fifth to a quarter of its CPU; the
 rests it finds differ from the fine step's no more than the rests of a body started 2 mm
 elsewhere differ from each other (``benchmarks/bench_settle.py --agreement``, docs/throughput.md).
 
