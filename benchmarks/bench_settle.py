@@ -181,9 +181,13 @@ def agreement(count: int, seed: int) -> list[str]:
         both = [(a, b) for a, b in zip(ref, rows) if a[0] == b[0] == "settled"]
         err = np.array([np.linalg.norm(a[3] - b[3], axis=-1).max() for a, b in both])
         corr = np.array([np.corrcoef(a[4].ravel(), b[4].ravel())[0, 1] for a, b in both])
-        lines.append(f"| {name} | {same}/{len(rows)} | {len(both)} | {1000 * np.median(err):.1f} / "
-                     f"{1000 * np.percentile(err, 90):.1f} / {1000 * err.max():.1f} | {100 * np.mean(err < 0.02):.0f} % | "
-                     f"{np.median(corr):.4f} / {corr.min():.3f} | {sum(r[1] for r in rows) / sum(r[1] for r in ref):.2f}x | "
+        if both:
+            rests = (f"{1000 * np.median(err):.1f} / {1000 * np.percentile(err, 90):.1f} / {1000 * err.max():.1f} | "
+                     f"{100 * np.mean(err < 0.02):.0f} % | {np.median(corr):.4f} / {corr.min():.3f}")
+        else:  # no body rested with both: nothing to compare
+            rests = "- | - | -"
+        lines.append(f"| {name} | {same}/{len(rows)} | {len(both)} | {rests} | "
+                     f"{sum(r[1] for r in rows) / sum(r[1] for r in ref):.2f}x | "
                      f"{sum(r[2] for r in rows) / sum(r[2] for r in ref):.2f}x |")
     return lines
 
