@@ -130,7 +130,7 @@ AGREEMENT_PARTITIONS = (("general", False), ("general_supine", False), ("hands_b
                         ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False))
 
 
-def settle_and_press(body, gender: str, drawn, bed, config, offset=(0.0, 0.0, 0.0)):
+def settle_and_press(body, gender: str, drawn, bed, config, offset=NO_OFFSET):
     """(status, steps, settle CPU s, joints (24, 3), pressure image) of one sampled body, started
     ``offset`` (3,) m from where it was drawn; the joints are moved back by it."""
     from pressurepose.sim.press import PressFailed, press

@@ -13,18 +13,18 @@ same in every set, so the rows are paired:
 - ``default``: today's defaults (``generate`` as is).
 
 The first two are no ``--settle`` preset, so this process swaps them in for 'paper' and runs
-``generate`` with one worker (worker processes would import the presets afresh). Sets are kept in OUT, so a
-rerun resumes. About 15 minutes of one core for the three sets. Replaces the ``shipped-physics``
-section of docs/RESULTS.md (``--no-write`` only prints).
+``generate`` with one worker (worker processes would import the presets afresh). Sets are kept in
+OUT, so a rerun resumes. About 15 minutes of one core for the three sets. Replaces the
+``shipped-physics`` section of docs/RESULTS.md (``--no-write`` only prints).
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import importlib.util
 import json
 import platform
-import sys
 from pathlib import Path
 
 from benchmarks.results import write_section
@@ -47,10 +47,11 @@ LABELS = {
 }
 
 
-def test_recipe() -> dict:
+def shipped_test_recipe() -> dict:
     """The shipped model's test entries, as ``tools/train_shipped_model.py`` makes them."""
-    sys.path.insert(0, str(REPO / "tools"))
-    import train_shipped_model as shipped
+    spec = importlib.util.spec_from_file_location("train_shipped_model", REPO / "tools" / "train_shipped_model.py")
+    shipped = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(shipped)
 
     recipe = shipped.scaled_recipe(json.loads(shipped.PAPER_RECIPE.read_text()), shipped.TRAIN_SAMPLES,
                                    shipped.TEST_SAMPLES, shipped.TRAIN_SEED, shipped.TEST_SEED)
@@ -86,7 +87,8 @@ def row(name: str, s: dict) -> str:
     a = s["all"]
     cells = [LABELS[name], f"{a['mod2']['mpjpe_cm']:.2f}"]
     cells += [f"{s[f'partition:{p}']['mod2']['mpjpe_cm']:.2f}" for p in ("general", "general_supine")]
-    worst = max(v["mod2"]["mpjpe_cm"] / v["baseline"]["mpjpe_cm"] for k, v in s.items() if k.startswith("partition:"))
+    worst = max(v["mod2"]["mpjpe_cm"] / v["baseline"]["mpjpe_cm"]
+                for k, v in s.items() if k.startswith("partition:"))
     cells += [f"{worst:.2f}", f"{a['posture_accuracy']:.2f}", f"{a['stature_mae_cm']:.1f} ({a['stature_bias_cm']:+.1f})"]
     return "| " + " | ".join(cells) + " |"
 
@@ -98,7 +100,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     recipe_file = args.out / "test_recipe.json"
-    write_json_atomic(recipe_file, test_recipe())
+    write_json_atomic(recipe_file, shipped_test_recipe())
     rows = []
     for name in SETTLES:
         make_set(name, recipe_file, args.out / name)

@@ -9,7 +9,7 @@ from pressurepose.sim.settle import SettleConfig
 
 
 def test_the_test_recipe_is_the_shipped_models():
-    recipe = bench.test_recipe()
+    recipe = bench.shipped_test_recipe()
     assert {e["split"] for e in recipe["entries"]} == {"test"}
     assert sum(e["count"] for e in recipe["entries"]) == 360
     assert {e["seed"] for e in recipe["entries"]} == {1411}
