@@ -25,6 +25,8 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
     "sample": ("pressurepose.pose.commands", "sample", "draw initial bodies of a posture partition (rejection sampler)"),
     "train": ("pressurepose.net.commands", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
+    "pack": ("pressurepose.net.commands", "pack",
+             "write a dataset's training arrays to one .npz file to copy to a GPU machine (train --data takes it)"),
     "infer": ("pressurepose.net.commands", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
     "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
     "evaluate-real": ("pressurepose.eval.commands", "evaluate_real",

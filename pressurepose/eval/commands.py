@@ -12,7 +12,8 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
                      "posture accuracy and stature error that evaluate-real reports on real images.")
     p.add_argument("--model", required=True,
                    help="trained model (.json with its .safetensors files, .pt, or a run folder)")
-    p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
+    p.add_argument("--data", required=True,
+                   help="dataset directory (or a folder of datasets) from `generate`, or a training pack (.npz) from `pack`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")

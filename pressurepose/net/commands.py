@@ -1,4 +1,4 @@
-"""CLI verbs ``pressurepose train`` and ``pressurepose infer``."""
+"""CLI verbs ``pressurepose train``, ``pressurepose pack`` and ``pressurepose infer``."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Train PressureNet (Mod1 with loss L1, then Mod2 with L2) on a generated dataset. "
                      "Defaults are the paper's. Uses a CUDA GPU with mixed precision when there is one. "
                      "Rerunning the same command resumes from the last saved epoch.")
-    p.add_argument("--data", required=True, help="dataset directory (or a folder of datasets) from `generate`")
+    p.add_argument("--data", required=True,
+                   help="dataset directory (or a folder of datasets) from `generate`, or a training pack (.npz) from `pack`")
     p.add_argument("--out", required=True, help="run folder: log.csv, tb/, state.*, model.safetensors + model.json")
     p.add_argument("--epochs-mod1", type=int, default=d.epochs_mod1, help=f"epochs for Mod1 (default {d.epochs_mod1})")
     p.add_argument("--epochs-mod2", type=int, default=d.epochs_mod2, help=f"epochs for Mod2 (default {d.epochs_mod2})")
@@ -86,6 +87,27 @@ def run_train(args) -> int:
     print(f"model: {result.model_path}"
           + (f"  (last epoch: loss {last['train_loss']:.4f}" + (f", val MPJPE {last['val_mpjpe_cm']:.2f} cm"
                                                                if "val_mpjpe_cm" in last else "") + ")" if last else ""))
+    return 0
+
+
+def add_pack_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = ("Write the arrays that `train` and `evaluate` read from a dataset (pressure, labels, gender, "
+                     "partition; not force, depth or contact) to one compressed .npz file, about a third of the "
+                     "dataset's size: make data on CPU machines, copy one file to a GPU machine, and give it to "
+                     "`train --data` or `evaluate --data` there (that machine needs no simulator).")
+    p.add_argument("data", help="dataset directory (or a folder of datasets of one split) from `generate`")
+    p.add_argument("--out", required=True, help="the pack to write (.npz)")
+
+
+def run_pack(args) -> int:
+    from pressurepose.files import check_output_path
+    from pressurepose.net.data import load_dataset, save_pack
+
+    out = check_output_path(args.out, "--out", suffixes=(".npz",))
+    data = load_dataset(args.data)
+    save_pack(data, out)
+    print(f"packed {len(data)} samples ({data.mat}, {data.grid.rows} x {data.grid.cols}) into {out} "
+          f"({out.stat().st_size / 1e6:.1f} MB)")
     return 0
 
 
