@@ -111,3 +111,29 @@ def test_repress_from_re_presses_both_splits_and_generates_only_the_wedge_entrie
     recipe = json.loads((tmp_path / "w" / "recipe_wedge.json").read_text())
     assert recipe["entries"] and {e["partition"] for e in recipe["entries"]} == {"propped_lateral"}
     assert calls[2][calls[2].index("--recipe") + 1] == str(tmp_path / "w" / "recipe_wedge.json")
+
+
+def test_train_on_a_pack_made_elsewhere_and_ship_to_a_folder(tmp_path):
+    """The GPU half of a split rebuild: --train-data PACK --ship-to DIR trains (1 + 1 epochs here),
+    skips the evaluations whose data is absent and writes the float16 shipped form, which loads."""
+    import subprocess
+    import sys
+
+    from pressurepose.cli import main
+    from pressurepose.net.checkpoint import read_model_files
+    from tests.net.synth import write_toy_dataset
+
+    write_toy_dataset(tmp_path / "data", n=4)
+    assert main(["pack", str(tmp_path / "data"), "--out", str(tmp_path / "train.npz")]) == 0
+    cmd = [sys.executable, str(TOOL), "--work", str(tmp_path / "w"), "--train-data", str(tmp_path / "train.npz"),
+           "--epochs-mod1", "1", "--epochs-mod2", "1", "--batch-size", "2", "--no-cpu-amp", "--seed", "2",
+           "--real", str(tmp_path / "no_real"), "--ship-to", str(tmp_path / "ship")]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert not (tmp_path / "w" / "data").exists() and not (tmp_path / "w" / "eval").exists()
+    meta = read_model_files(tmp_path / "ship" / "pressurenet.json")[0]
+    assert meta["train"]["seed"] == 2 and meta["train"]["epochs_mod1"] == 1
+    assert sorted(p.name for p in (tmp_path / "ship").iterdir()) == [
+        "pressurenet.json", "pressurenet.mod1.safetensors", "pressurenet.mod2.safetensors"]
+    bad = subprocess.run([*cmd[:2], "--train-data", "x.npz", "--data-only"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "cannot go with --data-only" in bad.stderr

@@ -17,6 +17,9 @@ at ``--real``::
     python tools/train_shipped_model.py --work runs/shipped                  # data, training, evaluation
     python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
     python tools/train_shipped_model.py --work runs/pilot --scale 0.1        # a small pilot
+    python tools/train_shipped_model.py --work runs/shipped --data-only      # data on CPU machines, then
+    pressurepose pack runs/shipped/data/train --out train.npz                # one file to copy, and on a GPU:
+    python tools/train_shipped_model.py --work runs/gpu --train-data train.npz --ship-to runs/gpu/shipped
     python tools/train_shipped_model.py --work runs/people --bed bed_people.json  # the same on a calibrated bed
     python tools/train_shipped_model.py --work runs/people --bed bed_people.json \
         --repress-from runs/shipped/data   # ... re-pressing an earlier run's bodies (tissue, sensor beds)
@@ -157,8 +160,17 @@ def main() -> int:
                         "bed may differ only in tissue and sensor constants) and generate only the wedge "
                         "partitions anew on it")
     p.add_argument("--skip-generate", action="store_true", help="use the data already in WORK/data")
+    p.add_argument("--data-only", action="store_true",
+                   help="stop after the data (then e.g. `pressurepose pack WORK/data/train --out train.npz`, copy "
+                        "the file to a GPU machine and run this tool there with --train-data train.npz)")
+    p.add_argument("--train-data", default=None, metavar="DATA",
+                   help="train on this dataset or training pack (`pressurepose pack`) instead of WORK/data/train; "
+                        "generates nothing, and evaluates on WORK/data/test only if it is there")
+    p.add_argument("--seed", type=int, default=0, help="training seed (split, shuffling, noise, init) [0]")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
+    p.add_argument("--ship-to", default=None, metavar="DIR",
+                   help="also write the model as it ships (float16, one file per module) into DIR")
     args = p.parse_args()
     if not args.scale > 0:
         p.error(f"--scale {args.scale}: expected a positive number")
@@ -168,9 +180,13 @@ def main() -> int:
     if args.repress_from and not args.bed:
         p.error("--repress-from needs --bed (the bed to press the bodies on)")
 
+    if args.seed < 0:
+        p.error(f"--seed {args.seed}: expected a whole number >= 0")
+    if args.train_data and (args.data_only or args.repress_from):
+        p.error("--train-data trains on data made elsewhere: it cannot go with --data-only or --repress-from")
     work = Path(args.work).resolve()
     data = work / "data"
-    if not args.skip_generate:
+    if not (args.skip_generate or args.train_data):
         from pressurepose.files import write_json_atomic
         from pressurepose.pose.partitions import get_partition
 
@@ -193,24 +209,29 @@ def main() -> int:
             cli("generate", "--recipe", str(recipe_file), "--randomize", "--shard-size",
                 str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data),
                 *(["--bed", str(Path(args.bed).resolve())] if args.bed else []))
+    if args.data_only:
+        return 0
     run = work / "run"
-    cli("train", "--data", str(data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
+    cli("train", "--data", str(Path(args.train_data).resolve() if args.train_data else data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
         *(["--cut-feet", str(args.cut_feet)] if args.cut_feet else []),
-        *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", "0")
-    cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))
+        *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", str(args.seed))
+    if not args.train_data or (data / "test").is_dir():
+        cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))
     if Path(args.real).is_dir():
         cli("evaluate-real", args.real, "--model", str(run), "--out", str(work / "real"))
+    if args.ship_to:
+        install(run, Path(args.ship_to))
     if args.install:
         install(run)
     return 0
 
 
-def install(run: Path) -> None:
-    """Copy the run's model into the package: weights as float16 (half the size; joint estimates
-    moved by at most 1.4 mm on 40 test images) in one file per module, each small enough for git."""
+def install(run: Path, assets: Path = ASSETS) -> None:
+    """Copy the run's model into the package (or ``assets``): weights as float16 (half the size; joint
+    estimates moved by at most 1.4 mm on 40 test images) in one file per module, each small enough for git."""
     import torch
 
     from pressurepose.net.checkpoint import body_model, load_model, read_model_files, save_model
@@ -218,10 +239,10 @@ def install(run: Path) -> None:
     specs = read_model_files(run)[0]["bodies"]
     bodies = tuple(body_model(specs[g]["spec"]) for g in ("female", "male"))
     net, meta = load_model(run, bodies=bodies)
-    ASSETS.mkdir(parents=True, exist_ok=True)
-    for old in ASSETS.glob("pressurenet*"):
+    assets.mkdir(parents=True, exist_ok=True)
+    for old in assets.glob("pressurenet*"):
         old.unlink()
-    save_model(ASSETS / "pressurenet.json", net, bodies, meta,
+    save_model(assets / "pressurenet.json", net, bodies, meta,
                split_modules=True, dtype=torch.float16)
 
 
