@@ -430,7 +430,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                 order = train_idx[torch.randperm(len(train_idx), generator=gen)]
                 net.train()
                 net.mod1.train(stage == 1)
-                t0, sums, count = time.perf_counter(), {"loss": 0.0, "joints": 0.0}, 0
+                # summed on the device and read once an epoch: a float() per step would wait for the GPU every step
+                t0, count = time.perf_counter(), 0
+                sums = {k: torch.zeros((), dtype=torch.float64, device=device) for k in ("loss", "joints")}
                 batches = range(0, len(order), config.batch_size)
                 if progress:
                     from tqdm import tqdm
@@ -452,13 +454,14 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     scaler.scale(loss).backward()
                     scaler.step(opt)
                     scaler.update()
-                    sums["loss"] += float(loss.detach()) * len(idx)
-                    sums["joints"] += float(parts["joints"]) * scales.joints_m * len(idx)
+                    sums["loss"] += loss.detach().double() * len(idx)
+                    sums["joints"] += parts["joints"].detach().double() * len(idx)
                     count += len(idx)
                 seconds = time.perf_counter() - t0
                 row = {"stage": stage, "epoch": epoch, "lr": opt.param_groups[0]["lr"],
-                       "train_loss": sums["loss"] / max(count, 1),
-                       "train_joints_cm": 100 * sums["joints"] / max(count, 1), "seconds": seconds,
+                       "train_loss": float(sums["loss"]) / max(count, 1),
+                       "train_joints_cm": 100 * float(sums["joints"]) * scales.joints_m / max(count, 1),
+                       "seconds": seconds,
                        "images_per_s": count / max(seconds, 1e-9)}
                 if n_val:
                     row.update(_validate(net, stage, data, val_idx, q_true, c_true, scales, config, device))
