@@ -40,9 +40,13 @@ session-5 to session-8 runs (docs/RESULTS.md sections generation-run, propped-ab
   rate schedules: about 62 minutes;
 - evaluation on the held-out set and on the real PMD-I images: a few minutes.
 
-``--scale 1.7`` gives about 10,000 training samples in about 1.5 hours of generation. On a CUDA GPU
-(``--device auto`` finds one) training takes minutes and the paper CNN (``--cnn paper``, no
-``--cpu-amp``) is the better choice.
+With today's defaults (session 13) the whole data step, 9,498 training and 360 test samples, took 85
+minutes with 2 workers. On a CUDA GPU (``--device auto`` finds one) the same schedule trained in about
+10 minutes on an H200 (Mod1 7-10 s an epoch with three runs sharing the GPU, Mod2 11-12 s alone;
+docs/RESULTS.md section gpu-rebuild). The paper CNN (``--cnn paper``) has 2.3 times the weights
+(about 33 MB in float16 for both modules, within issue 14's 40 MB for a shipped model); on a GPU it
+is the one to try next, as no run has compared it with the half-width CNN yet.
+``--scale 1.7`` gives about 10,000 training samples from the paper's mix alone.
 
 These are far below the paper's 184K samples x 100 epochs x 2 modules.
 """
