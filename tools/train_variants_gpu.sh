@@ -1,0 +1,32 @@
+#!/bin/bash
+# Train variants of the shipped recipe side by side on one GPU from a training pack (`pressurepose pack`),
+# each with tools/train_shipped_model.py --train-data PACK --ship-to, as a session with a lent GPU does.
+#
+#   bash tools/train_variants_gpu.sh PACK DEADLINE_S [NAME:"TOOL ARGS" ...]
+#   bash tools/train_variants_gpu.sh train.npz 540 A:"--seed 0" A2:"--seed 1" B:"--seed 0 --epochs-mod1 72 --epochs-mod2 24"
+#
+# Writes NAME.log and NAME.tar (the float16 shipped form and log.csv) into $OUT (default runs/gpu_variants).
+# Each run is stopped DEADLINE_S seconds after it starts; a stopped run leaves only its log.csv.
+# Measured (session 13, one H200, the command saw 4 CPU cores): with three runs sharing the GPU each Mod1
+# epoch took 7-10 s, and a Mod2 epoch 11-12 s alone, so 48 + 16 epochs need about 10 minutes of the GPU;
+# three such runs side by side did not finish 48 Mod1 epochs in 450 s.
+set -u
+PACK=$1; DL=$2; shift 2
+OUT=${OUT:-runs/gpu_variants}; WORK=${WORK:-/tmp/gpu_variants}
+mkdir -p "$OUT" "$WORK"
+export PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 PYTHONPATH=$PWD OMP_NUM_THREADS=${OMP_NUM_THREADS:-4}
+nvidia-smi -L 2>/dev/null; echo "cpus: $(nproc)"
+python3 -c "import torch; print('torch', torch.__version__, torch.cuda.is_available() and torch.cuda.get_device_name())"
+(nvidia-smi --query-gpu=timestamp,utilization.gpu,memory.used --format=csv -l 20 > "$OUT/gpu.csv" 2>&1 &)
+run() {
+  local n=$1; shift
+  # shellcheck disable=SC2086  # the variant's arguments are meant to split
+  timeout -k 10 "$DL" python3 tools/train_shipped_model.py --work "$WORK/$n" --train-data "$PACK" \
+    --ship-to "$WORK/ship/$n" $* > "$OUT/$n.log" 2>&1
+  echo "$n rc=$? at $(date +%T)" >> "$OUT/$n.log"
+  mkdir -p "$WORK/ship/$n"; cp "$WORK/$n/run/log.csv" "$WORK/ship/$n/" 2>/dev/null
+  tar -C "$WORK/ship" -cf "$OUT/$n.tar" "$n"
+}
+for v in "$@"; do run "${v%%:*}" "${v#*:}" & done
+wait
+ls -la "$OUT"
