@@ -22,6 +22,8 @@ import json
 import platform
 from pathlib import Path
 
+import numpy as np
+
 from benchmarks.results import write_section
 
 WEDGE = ("left 30 deg (wedge)", "left 60 deg (wedge)", "right 30 deg (wedge)", "right 60 deg (wedge)")
@@ -70,6 +72,45 @@ def row(name: str, test: dict, extra: dict | None, real: dict | None) -> str:
     return "| " + " | ".join(cells) + " |"
 
 
+def real_rows(out: Path) -> list[dict]:
+    """The per-estimate rows ``evaluate-real`` kept in ``out`` (estimates.json)."""
+    return json.loads((out / "estimates.json").read_text())["rows"]
+
+
+def paired_differences(base: list[dict], other: list[dict], draws: int = 2000, seed: int = 0) -> dict:
+    """``other`` minus ``base`` on the same real estimates, with 90 % intervals from resampling the
+    subjects (whole people, with replacement; the same draws for both models): posture accuracy, wedge
+    postures read right (share) and stature MAE (m). What these intervals hold is the spread that
+    comes from PMD-I's few people, not from training."""
+    key = [(r["image"], r["body_model"]) for r in base]
+    if key != [(r["image"], r["body_model"]) for r in other]:
+        raise SystemExit("the two models' real estimates are not of the same images")
+    subjects = sorted({r["subject"] for r in base})
+    sid = np.array([subjects.index(r["subject"]) for r in base])
+    scored = np.array([bool(r["scored"]) for r in base])
+    wedge = np.array([r["detail"] in WEDGE for r in base]) & scored
+    stat = {}
+    for name, rows in (("base", base), ("other", other)):
+        correct = np.array([bool(r["correct"]) for r in rows]) & scored
+        err = np.abs([r["stature_err_m"] for r in rows])
+        stat[name] = np.stack([np.bincount(sid, w, len(subjects)) for w in (correct, scored, correct & wedge, wedge,
+                                                                              err, np.ones(len(rows)))])
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, len(subjects), (draws, len(subjects)))
+    counts = np.stack([np.bincount(p, minlength=len(subjects)) for p in picks])  # (draws, subjects)
+
+    def measures(t):  # t (6, subjects) -> (3, draws): posture acc., wedge share, stature MAE
+        c = counts @ t.T  # (draws, 6)
+        return np.stack([c[:, 0] / c[:, 1], c[:, 2] / c[:, 3], c[:, 4] / c[:, 5]])
+
+    full = np.ones(len(subjects))
+    d_draws = measures(stat["other"]) - measures(stat["base"])
+    d_full = [float(v) for v in ((stat["other"] @ full) - (stat["base"] @ full))[[0, 2, 4]]
+              / (stat["base"] @ full)[[1, 3, 5]]]
+    lo, hi = np.percentile(d_draws, [5, 95], axis=1)
+    return {k: (d_full[i], float(lo[i]), float(hi[i])) for i, k in enumerate(("posture", "wedge", "stature_m"))}
+
+
 def parse_model(text: str) -> tuple[str, str]:
     name, sep, path = text.partition("=")
     if not sep or not name or not path:
@@ -91,13 +132,19 @@ def main(argv=None) -> int:
     names = [n for n, _ in args.model]
     if len(set(names)) != len(names):
         ap.error(f"model names must differ: {names}")
-    rows = []
+    rows, diffs = [], []
     for name, path in args.model:
         out = args.out / name
         test = sim_report(path, args.test, out / "test")
         extra = sim_report(path, args.extra, out / "extra") if args.extra else None
         real = real_report(path, args.real, out / "real") if args.real else None
         rows.append(row(name, test, extra, real))
+        if real is not None and name != names[0]:
+            d = paired_differences(real_rows(args.out / names[0] / "real"), real_rows(out / "real"))
+            diffs.append(f"| {name} | {d['posture'][0]:+.3f} ({d['posture'][1]:+.3f} to {d['posture'][2]:+.3f}) | "
+                         f"{d['wedge'][0]:+.3f} ({d['wedge'][1]:+.3f} to {d['wedge'][2]:+.3f}) | "
+                         f"{100 * d['stature_m'][0]:+.2f} ({100 * d['stature_m'][1]:+.2f} to "
+                         f"{100 * d['stature_m'][2]:+.2f}) |")
     command = "python -m benchmarks.bench_models " + " ".join(f"--model {n}=..." for n in names)
     text = "\n".join([
         f"### {args.title}", "",
@@ -106,7 +153,13 @@ def main(argv=None) -> int:
         "Simulated: `pressurepose evaluate` (MPJPE of Mod2; BL = the mean-pose baseline). Real: `pressurepose "
         "evaluate-real` (posture accuracy over every estimate, each image read with both body models; the wedge "
         "postures and flat side lying by PMD posture).", "",
-        HEADER, "|" + "---|" * HEADER.count(" | ") + "---|", *rows, "", args.note])
+        HEADER, "|" + "---|" * HEADER.count(" | ") + "---|", *rows, "",
+        *([f"Real images, each model minus `{names[0]}` on the same estimates, with 90 % intervals from resampling "
+           "PMD-I's people (2,000 draws of whole subjects; the spread a test set of so few people leaves, not the "
+           "spread between trainings):", "",
+           "| model | posture accuracy | share of wedge postures right | stature MAE (cm) |", "|---|---|---|---|",
+           *diffs, ""] if diffs else []),
+        args.note])
     print(text)
     if args.section:
         write_section(args.section, text)

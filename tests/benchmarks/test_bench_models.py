@@ -57,3 +57,24 @@ def test_real_columns_count_the_wedge_postures():
             "stature_r": -0.2}
     cells = [c.strip() for c in bench.row("m", test, None, real).strip("|").split("|")]
     assert cells == ["m", "10.00", "0.40", "0.90", "-", "-", "0.80", "52 / 104", "0.92 / 1.00", "7.7 (-3.0)", "-0.20"]
+
+
+def _rows(correct, err):
+    details = ["supine", "left 30 deg (wedge)", "left side", "right 60 deg (wedge)"]
+    return [{"image": i, "body_model": "f", "subject": str(i % 3), "detail": details[i % 4], "scored": True,
+             "correct": bool(c), "stature_err_m": e} for i, (c, e) in enumerate(zip(correct, err))]
+
+
+def test_paired_differences_resample_whole_subjects():
+    base = _rows([1, 0, 1, 0, 1, 0], [0.05] * 6)
+    same = bench.paired_differences(base, base, draws=200)
+    assert all(v == (0.0, 0.0, 0.0) for v in same.values())
+    # the other model reads two of the three wedge images right (1 and 3, not 5) and is 1 cm closer everywhere
+    other = _rows([1, 1, 1, 1, 1, 0], [0.04] * 6)
+    d = bench.paired_differences(base, other, draws=500)
+    assert d["posture"][0] == pytest.approx(2 / 6) and d["wedge"][0] == pytest.approx(2 / 3)
+    assert d["stature_m"] == pytest.approx((-0.01, -0.01, -0.01))
+    lo, hi = d["posture"][1:]
+    assert 0 <= lo <= 2 / 6 <= hi <= 1  # resampling 3 subjects moves the share, never below no gain
+    with pytest.raises(SystemExit):
+        bench.paired_differences(base, other[:5])
