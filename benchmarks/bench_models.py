@@ -97,18 +97,18 @@ def paired_differences(base: list[dict], other: list[dict], draws: int = 2000, s
                                                                               err, np.ones(len(rows)))])
     rng = np.random.default_rng(seed)
     picks = rng.integers(0, len(subjects), (draws, len(subjects)))
-    counts = np.stack([np.bincount(p, minlength=len(subjects)) for p in picks])  # (draws, subjects)
+    offsets = (picks + len(subjects) * np.arange(draws)[:, None]).ravel()
+    counts = np.bincount(offsets, minlength=draws * len(subjects)).reshape(draws, -1)  # (draws, subjects)
+    everyone = np.ones((1, len(subjects)))
 
-    def measures(t):  # t (6, subjects) -> (3, draws): posture acc., wedge share, stature MAE
-        c = counts @ t.T  # (draws, 6)
-        return np.stack([c[:, 0] / c[:, 1], c[:, 2] / c[:, 3], c[:, 4] / c[:, 5]])
+    def measures(t, weights):  # t (6, subjects) -> (3, len(weights)): posture acc., wedge share, stature MAE
+        c = weights @ t.T
+        return c[:, [0, 2, 4]].T / c[:, [1, 3, 5]].T
 
-    full = np.ones(len(subjects))
-    d_draws = measures(stat["other"]) - measures(stat["base"])
-    d_full = [float(v) for v in ((stat["other"] @ full) - (stat["base"] @ full))[[0, 2, 4]]
-              / (stat["base"] @ full)[[1, 3, 5]]]
+    d_full = (measures(stat["other"], everyone) - measures(stat["base"], everyone))[:, 0]
+    d_draws = measures(stat["other"], counts) - measures(stat["base"], counts)
     lo, hi = np.percentile(d_draws, [5, 95], axis=1)
-    return {k: (d_full[i], float(lo[i]), float(hi[i])) for i, k in enumerate(("posture", "wedge", "stature_m"))}
+    return {k: (float(d_full[i]), float(lo[i]), float(hi[i])) for i, k in enumerate(("posture", "wedge", "stature_m"))}
 
 
 def parse_model(text: str) -> tuple[str, str]:

@@ -125,6 +125,8 @@ def cli(*args: str) -> None:
 
 
 def main() -> int:
+    from pressurepose.cli import seed_arg
+
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")
     p.add_argument("--scale", type=float, default=1.0,
@@ -170,7 +172,7 @@ def main() -> int:
     p.add_argument("--train-data", default=None, metavar="DATA",
                    help="train on this dataset or training pack (`pressurepose pack`) instead of WORK/data/train; "
                         "generates nothing, and evaluates on WORK/data/test only if it is there")
-    p.add_argument("--seed", type=int, default=0, help="training seed (split, shuffling, noise, init) [0]")
+    p.add_argument("--seed", type=seed_arg, default=0, help="training seed (split, shuffling, noise, init) [0]")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
     p.add_argument("--ship-to", default=None, metavar="DIR",
@@ -184,8 +186,6 @@ def main() -> int:
     if args.repress_from and not args.bed:
         p.error("--repress-from needs --bed (the bed to press the bodies on)")
 
-    if args.seed < 0:
-        p.error(f"--seed {args.seed}: expected a whole number >= 0")
     if args.train_data and (args.data_only or args.repress_from):
         p.error("--train-data trains on data made elsewhere: it cannot go with --data-only or --repress-from")
     work = Path(args.work).resolve()
@@ -216,7 +216,8 @@ def main() -> int:
     if args.data_only:
         return 0
     run = work / "run"
-    cli("train", "--data", str(Path(args.train_data).resolve() if args.train_data else data / "train"), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
+    train_data = Path(args.train_data).resolve() if args.train_data else data / "train"
+    cli("train", "--data", str(train_data), "--out", str(run), "--epochs-mod1", str(args.epochs_mod1),
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),

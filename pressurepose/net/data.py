@@ -57,7 +57,7 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
 
 
 PACK_FORMAT = "pressurepose-training-pack-1"
-_PACK_SHAPES = {"pressure": (None, None), "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
+_LABEL_SHAPES = {"betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3), "gender": (), "partition": ()}
 
 
 def save_pack(data: LoadedData, path: str | Path) -> None:
@@ -77,6 +77,9 @@ def save_pack(data: LoadedData, path: str | Path) -> None:
 
 def _load_pack(path: Path, limit: int | None) -> LoadedData:
     """A training pack written by :func:`save_pack`; BadInput naming the file for anything else."""
+    import zipfile
+    import zlib
+
     from pressurepose.files import numpy_load_problem
 
     try:
@@ -84,7 +87,7 @@ def _load_pack(path: Path, limit: int | None) -> LoadedData:
             arrays = {k: z[k] for k in z.files}
     except (ValueError, OSError, EOFError, KeyError) as exc:  # KeyError/zipfile errors: a truncated file
         raise BadInput(f"training pack {path} is not readable ({numpy_load_problem(path, exc)})") from None
-    except Exception as exc:  # zipfile.BadZipFile, zlib.error on a corrupt member
+    except (zipfile.BadZipFile, zlib.error) as exc:  # a corrupt archive or member
         raise BadInput(f"training pack {path} is corrupt ({type(exc).__name__}: {exc})") from None
     need = ("format", "mat", "grid", "partition_names", *FIELDS, "gender", "partition")
     missing = [k for k in need if k not in arrays]
@@ -96,7 +99,7 @@ def _load_pack(path: Path, limit: int | None) -> LoadedData:
     if grid.shape != (4,) or not np.isfinite(grid).all():
         raise BadInput(f"training pack {path}: grid {grid.tolist()} is not (rows, cols, pitch_row, pitch_col)")
     rows, cols = int(grid[0]), int(grid[1])
-    for k, shape in {**_PACK_SHAPES, "pressure": (rows, cols), "gender": (), "partition": ()}.items():
+    for k, shape in {"pressure": (rows, cols), **_LABEL_SHAPES}.items():
         a = arrays[k]
         if a.shape != (n, *shape):
             raise BadInput(f"training pack {path}: {k} has shape {a.shape}; expected {(n, *shape)}")
