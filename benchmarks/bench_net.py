@@ -131,10 +131,28 @@ def bench_parts(net: PressureNet, frames: int) -> dict[str, tuple[float, float]]
     }
 
 
+def dispatched_ops(fn) -> int:
+    """How many tensor operations one call of ``fn`` dispatches to kernels (forward, backward and
+    optimizer; counted below autograd, so views and in-place updates count too). A GPU training
+    step of this size is bound by their number rather than by arithmetic, so fewer is faster there."""
+    from torch.utils._python_dispatch import TorchDispatchMode
+
+    class Count(TorchDispatchMode):
+        n = 0
+
+        def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+            Count.n += 1
+            return func(*args, **(kwargs or {}))
+
+    with Count():
+        fn()
+    return Count.n
+
+
 def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu", amp: bool = False,
-                   compile_cnns: bool = False) -> dict[str, tuple[float, float]]:
-    """{module: (images per CPU-second, images per wall-second)} of training steps as
-    :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2).
+                   compile_cnns: bool = False) -> dict[str, tuple[float, float, int]]:
+    """{module: (images per CPU-second, images per wall-second, operations dispatched per step)} of
+    training steps as :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2).
     compile_cnns: the CNNs through ``torch.compile`` (measured only; training does not use it)."""
     from pressurepose.net.train import TrainConfig, _forward
 
@@ -172,7 +190,7 @@ def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu"
                 torch.cuda.synchronize()
 
         cpu, wall = timed(step, steps)
-        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = (batch / cpu, batch / wall)
+        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = (batch / cpu, batch / wall, dispatched_ops(step))
     for q in net.mod1.parameters():
         q.requires_grad_(True)
     return out
@@ -267,11 +285,19 @@ def main(argv=None) -> int:
         "(section shipped_model), which also makes its inference faster than the paper CNN's.",
         "",
         "| option | Mod1 (L1) images per CPU-s | x default | Mod2 (L2) images per CPU-s | x default | "
-        "Mod1 images per wall-s |",
-        "|---|---|---|---|---|---|",
+        "Mod1 images per wall-s | operations per step, Mod1 / Mod2 |",
+        "|---|---|---|---|---|---|---|",
         *[f"| {k} | {v['Mod1 (L1)'][0]:.1f} | {v['Mod1 (L1)'][0] / base['Mod1 (L1)'][0]:.1f} | "
-          f"{v['Mod2 (L2)'][0]:.1f} | {v['Mod2 (L2)'][0] / base['Mod2 (L2)'][0]:.1f} | {v['Mod1 (L1)'][1]:.1f} |"
+          f"{v['Mod2 (L2)'][0]:.1f} | {v['Mod2 (L2)'][0] / base['Mod2 (L2)'][0]:.1f} | {v['Mod1 (L1)'][1]:.1f} | "
+          f"{v['Mod1 (L1)'][2]:,} / {v['Mod2 (L2)'][2]:,} |"
           for k, v in train_cpu.items()],
+        "",
+        "Operations per step: tensor operations one training step dispatches (forward, backward and Adam, "
+        "counted below autograd, views included). On a GPU a step this small is bound by their number "
+        "rather than by arithmetic (session 13's H200 ran a Mod2 step in about 34 ms), so they are the "
+        "figure to cut for GPU training; the body layer poses its skeleton by pointer jumping (four "
+        "products of all joints) instead of one product per tree level since session 14, which took "
+        "the half CNN's bf16 steps from 1,813 to 1,253 (Mod1) and 3,099 to 2,293 (Mod2).",
     ]
     if args.compile:
         lines += ["", "torch.compile row: both CNNs compiled by inductor (C++ made by the local gcc, offline); "
@@ -279,7 +305,7 @@ def main(argv=None) -> int:
     if train_gpu:
         lines += ["", f"Training, GPU ({torch.cuda.get_device_name()}), batch 128, mixed precision:", "",
                   "| module | images/s (wall) |", "|---|---|",
-                  *[f"| {k} | {w:.1f} |" for k, (_, w) in train_gpu.items()]]
+                  *[f"| {k} | {w:.1f} |" for k, (_, w, _) in train_gpu.items()]]
     else:
         lines += ["", "No CUDA GPU on this machine: GPU training speed not measured."]
     if args.model and args.data:

@@ -11,6 +11,7 @@ Same frames as :mod:`pressurepose.body.lbs_numpy`: SMPL parameters in, z-up proj
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,34 +47,43 @@ def batch_rodrigues(axis_angle: torch.Tensor) -> torch.Tensor:
     theta = torch.sqrt(t2)
     a = torch.where(small, 1.0 - theta2 / 6.0, torch.sin(theta) / theta)
     b = torch.where(small, 0.5 - theta2 / 24.0, (1.0 - torch.cos(theta)) / t2)
-    x, y, z = axis_angle.unbind(-1)
-    zero = torch.zeros_like(x)
-    K = torch.stack([zero, -z, y, z, zero, -x, -y, x, zero], -1).reshape(axis_angle.shape[:-1] + (3, 3))
-    eye = torch.eye(3, dtype=axis_angle.dtype, device=axis_angle.device).expand(K.shape)
+    K = (axis_angle @ _cross_matrix_map(axis_angle.dtype, axis_angle.device)).unflatten(-1, (3, 3))
+    eye = torch.eye(3, dtype=axis_angle.dtype, device=axis_angle.device)
     return eye + a[..., None] * K + b[..., None] * (K @ K)
 
 
-def _tree_levels(parents: list[int]) -> dict:
-    """The kinematic tree (root 0) ordered by depth, for posing it a level at a time: ``order``
-    (the joints, root first, then each level's), ``levels`` ((start, stop) of each level below the
-    root in that order), ``up`` (each joint's parent's position in that order; the root's 0) and
-    ``back`` (the permutation from that order to joint order; None when it is the identity, as for
-    SMPL)."""
-    depth = [0] * len(parents)
-    for j in range(1, len(parents)):
+@functools.lru_cache(maxsize=8)
+def _cross_matrix_map(dtype: torch.dtype, device: torch.device) -> torch.Tensor:
+    """(3, 9): v @ this is the cross-product matrix [v]x of v (3,), row-major; its entries are
+    0 and +-1, so the product is exact, and it is one operation instead of a stack of nine."""
+    with torch.inference_mode(False):  # a constant first made during inference must still enter autograd
+        E = torch.zeros(3, 3, 3, dtype=dtype, device=device)
+        for (i, j), (k, sign) in {(0, 1): (2, -1), (0, 2): (1, 1), (1, 0): (2, 1), (1, 2): (0, -1),
+                                  (2, 0): (1, -1), (2, 1): (0, 1)}.items():
+            E[k, i, j] = sign
+        return E.reshape(3, 9)
+
+
+def _tree_jumps(parents: list[int]) -> list[list[int]]:
+    """Index tables for posing the kinematic tree (root 0) by pointer jumping: a virtual identity
+    node is appended at index J (the root's parent and its own); table k holds each node's ancestor
+    2^k links up (J once past the root). Composing every node's transform with that ancestor's, once
+    per table, leaves each node with its world transform, in ceil(log2(depth + 1)) products of all
+    joints at once, whatever the tree's shape (SMPL: 4, against 8 levels one at a time)."""
+    n = len(parents)
+    up = [n if j == 0 or p < 0 else p for j, p in enumerate(parents)] + [n]
+    depth = [0] * n
+    for j in range(1, n):
         d, p = 1, parents[j]
-        while p != 0:
+        while p > 0:
             d, p = d + 1, parents[p]
         depth[j] = d
-    order, levels = [0], []
-    for d in range(1, max(depth, default=0) + 1):
-        joints = [j for j in range(len(parents)) if depth[j] == d]
-        levels.append((len(order), len(order) + len(joints)))
-        order += joints
-    up = [0] + [order.index(parents[j]) for j in order[1:]]
-    back = [order.index(j) for j in range(len(parents))]
-    identity = order == list(range(len(parents)))
-    return {"order": None if identity else order, "levels": levels, "up": up, "back": None if identity else back}
+    tables, span = [], 1
+    while span < max(depth, default=0) + 1:  # a node's chain to the identity has depth + 1 links
+        tables.append(up)
+        up = [up[a] for a in up]
+        span *= 2
+    return tables
 
 
 class BodyLayer(nn.Module):
@@ -103,8 +113,8 @@ class BodyLayer(nn.Module):
         jreg = np.asarray(arrays.J_regressor, dtype=np.float64)
         buf("J_template", jreg @ np.asarray(arrays.v_template, dtype=np.float64))
         buf("J_shapedirs", np.einsum("jv,vcs->jcs", jreg, np.asarray(arrays.shapedirs, dtype=np.float64)))
-        self._tree = _tree_levels(self.parents)
-        self._tree_index: dict = {}  # the tree's index tensors per device
+        self._jumps = _tree_jumps(self.parents)
+        self._jump_index: dict = {}  # the jump tables as index tensors per device
         self.register_buffer("faces", torch.as_tensor(arrays.faces, dtype=torch.long), persistent=False)
 
     def forward(self, betas: torch.Tensor | None = None, body_pose: torch.Tensor | None = None,
@@ -153,31 +163,32 @@ class BodyLayer(nn.Module):
             verts = None if verts is None else verts + t
         return BodyOutput(vertices=verts, joints=joints, rotations=Rw)
 
-    def _tree_tensors(self, device) -> dict:
-        idx = self._tree_index.get(device)
+    def _jump_tensors(self, device) -> list[torch.Tensor]:
+        idx = self._jump_index.get(device)
         if idx is None:
-            idx = {k: None if v is None else torch.tensor(v, dtype=torch.long, device=device)
-                   for k, v in self._tree.items() if k != "levels"}
-            self._tree_index[device] = idx
+            with torch.inference_mode(False):  # made during inference, still usable in training
+                idx = [torch.tensor(t, dtype=torch.long, device=device) for t in self._jumps]
+            self._jump_index[device] = idx
         return idx
 
     def _kinematic_tree(self, rot: torch.Tensor, J: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """World rotations (B, J, 3, 3) and positions (B, J, 3) of the joints (y-up) from their
-        local rotations rot (B, J, 3, 3) and rest positions J (B, J, 3): down the tree a level at a
-        time (all joints of one depth in one product)."""
-        idx = self._tree_tensors(rot.device)
-        if idx["order"] is not None:
-            rot, J = rot.index_select(1, idx["order"]), J.index_select(1, idx["order"])
-        rel = torch.cat([J[:, :1], J[:, 1:] - J.index_select(1, idx["up"][1:])], 1)  # each from its parent
-        Rw, tw = rot[:, :1], rel[:, :1]  # the joints done so far
-        for start, stop in self._tree["levels"]:
-            up = idx["up"][start:stop]
-            Rp = Rw.index_select(1, up)
-            tw = torch.cat([tw, tw.index_select(1, up) + (Rp @ rel[:, start:stop, :, None])[..., 0]], 1)
-            Rw = torch.cat([Rw, Rp @ rot[:, start:stop]], 1)
-        if idx["back"] is not None:
-            Rw, tw = Rw.index_select(1, idx["back"]), tw.index_select(1, idx["back"])
-        return Rw, tw
+        local rotations rot (B, J, 3, 3) and rest positions J (B, J, 3), by pointer jumping
+        (:func:`_tree_jumps`): a few products of all joints at once instead of one per tree level,
+        so a training step dispatches far fewer small operations (a GPU step is dispatch-bound)."""
+        jumps = self._jump_tensors(rot.device)
+        b, n = rot.shape[:2]
+        if not jumps:
+            return rot, J
+        # homogeneous 4 x 4 transforms, one composition a product; node n: the identity at the origin
+        t = torch.cat([J, J.new_zeros(b, 1, 3)], 1)
+        t = t - t.index_select(1, jumps[0])  # each joint from its parent (the root from the origin)
+        R = torch.cat([rot, torch.eye(3, dtype=rot.dtype, device=rot.device).expand(b, 1, 3, 3)], 1)
+        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=rot.dtype, device=rot.device).expand(b, n + 1, 1, 4)
+        T = torch.cat([torch.cat([R, t[..., None]], -1), bottom], -2)
+        for up in jumps:  # each node's transform from the ancestor 2^k links up, then from twice as far
+            T = T.index_select(1, up) @ T
+        return T[:, :n, :3, :3], T[:, :n, :3, 3]
 
     def _skin(self, betas, rot, J, Rw, joints) -> torch.Tensor:
         """Vertices (B, V, 3), z-up, before the translation: shape and pose blend shapes, then

@@ -118,23 +118,59 @@ def test_body_layer_gradients_are_those_of_its_numbers():
     assert torch.autograd.gradcheck(f, (betas, pose, orient, transl))
 
 
-def test_kinematic_tree_by_levels_equals_the_joint_by_joint_chain():
+def test_kinematic_tree_by_pointer_jumping_equals_the_joint_by_joint_chain():
     from types import SimpleNamespace
 
-    from pressurepose.body.lbs_torch import BodyLayer, _tree_levels
+    from pressurepose.body.lbs_torch import BodyLayer, _tree_jumps
 
-    parents = [-1, 0, 1, 0, 2, 3, 1]  # joint 3's level comes before joint 2's children: reordered
-    tree = SimpleNamespace(_tree=_tree_levels(parents), _tree_index={})
-    assert tree._tree["order"] is not None and tree._tree["back"] is not None
-    tree._tree_tensors = lambda device: BodyLayer._tree_tensors(tree, device)
+    # a chain of depth 6 (seven links: three jumps), side branches, a joint deeper than a later one
+    parents = [-1, 0, 1, 0, 2, 3, 1, 4, 7, 8]
+    tables = _tree_jumps(parents)
+    assert len(tables) == 3  # 2^3 >= 6 + 1 links
+    assert _tree_jumps([-1]) == [] and len(_tree_jumps([-1, 0])) == 1
+    tree = SimpleNamespace(_jumps=tables, _jump_index={})
+    tree._jump_tensors = lambda device: BodyLayer._jump_tensors(tree, device)
     g = torch.Generator().manual_seed(3)
-    rot = batch_rodrigues(torch.randn(2, 7, 3, generator=g, dtype=torch.float64))
-    J = torch.randn(2, 7, 3, generator=g, dtype=torch.float64)
+    n = len(parents)
+    rot = batch_rodrigues(torch.randn(2, n, 3, generator=g, dtype=torch.float64))
+    J = torch.randn(2, n, 3, generator=g, dtype=torch.float64)
     Rw, tw = BodyLayer._kinematic_tree(tree, rot, J)
     R_ref, t_ref = [rot[:, 0]], [J[:, 0]]
-    for j in range(1, 7):
+    for j in range(1, n):
         p = parents[j]
         R_ref.append(R_ref[p] @ rot[:, j])
         t_ref.append(t_ref[p] + (R_ref[p] @ (J[:, j] - J[:, p])[..., None])[..., 0])
     torch.testing.assert_close(Rw, torch.stack(R_ref, 1), atol=1e-12, rtol=0)
     torch.testing.assert_close(tw, torch.stack(t_ref, 1), atol=1e-12, rtol=0)
+
+
+def test_posing_the_skeleton_dispatches_a_few_operations_whatever_the_tree_depth():
+    # a GPU training step is bound by the number of operations it dispatches: the skeleton costs
+    # a fixed handful per pointer jump, not a product per tree level
+    from types import SimpleNamespace
+
+    from benchmarks.bench_net import dispatched_ops
+    from pressurepose.body.lbs_torch import BodyLayer, _tree_jumps
+
+    def skeleton_ops(parents):
+        tree = SimpleNamespace(_jumps=_tree_jumps(parents), _jump_index={})
+        tree._jump_tensors = lambda device: BodyLayer._jump_tensors(tree, device)
+        rot = batch_rodrigues(0.3 * torch.randn(4, len(parents), 3))
+        J = torch.randn(4, len(parents), 3)
+        BodyLayer._kinematic_tree(tree, rot, J)  # the index tensors made once
+        return dispatched_ops(lambda: BodyLayer._kinematic_tree(tree, rot, J)), len(tree._jumps)
+
+    ops9, jumps9 = skeleton_ops([-1] + list(range(8)))  # a chain of depth 8 (SMPL's): 9 links
+    ops16, jumps16 = skeleton_ops([-1] + list(range(15)))  # depth 15: 16 links
+    assert jumps9 == jumps16 == 4
+    assert ops9 == ops16 <= 20 * jumps9 + 10
+
+
+def test_body_layer_first_called_in_inference_mode_still_trains():
+    # its cached constants (cross-product map, jump tables) must not be inference tensors
+    layer = BodyModel(toy_body_arrays()).torch_layer(dtype=torch.float64)
+    with torch.inference_mode():
+        layer(body_pose=torch.zeros(1, 69, dtype=torch.float64))
+    pose = (0.3 * torch.randn(2, 69, dtype=torch.float64)).requires_grad_()
+    layer(body_pose=pose).joints.sum().backward()
+    assert torch.isfinite(pose.grad).all() and pose.grad.abs().sum() > 0
