@@ -41,24 +41,33 @@ class NoiseConfig:
                              f"{self.cut_feet_rows} >= 1")
 
 
-def _randn(shape, generator: torch.Generator, like: torch.Tensor) -> torch.Tensor:
+def _randn(shape, generator: torch.Generator, like: torch.Tensor | None) -> torch.Tensor:
+    """Standard normal draws (float32) from ``generator``, on ``like``'s device and dtype (None: left
+    on the generator's device). The copy does not wait for the GPU to finish its queued work."""
     z = torch.randn(shape, generator=generator, device=generator.device, dtype=torch.float32)
-    return z.to(device=like.device, dtype=like.dtype)
+    if like is None:
+        return z
+    if like.device.type == "cuda" and z.device.type == "cpu":
+        z = z.pin_memory()  # from pinned memory the copy is queued like a kernel
+    return z.to(device=like.device, dtype=like.dtype, non_blocking=True)
 
 
 def add_noise(pressure: torch.Tensor, generator: torch.Generator, config: NoiseConfig = NoiseConfig(),
               ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Noisy copies of pressure images (B, R, C).
 
-    Returns (noisy (B, R, C), contact mask of the clean images (B, R, C), blur sigmas (B,)) to be
-    passed on to :func:`pressurepose.net.transforms.input_channels`. Draws only from ``generator``.
+    Returns (noisy (B, R, C), contact mask of the clean images (B, R, C), blur sigmas (B,), on the
+    generator's device) to be passed on to :func:`pressurepose.net.transforms.input_channels`. Draws
+    only from ``generator``.
     """
     b = pressure.shape[0]
     mask = contact_map(pressure)
     scale = 1.0 + config.mult_std * _randn((b, 1, 1), generator, pressure)
     additive = config.add_std * _randn(pressure.shape, generator, pressure)
     noisy = ((pressure * scale + additive * mask).clamp(0.0, config.clip_max)) * mask
-    sigma = (config.blur_mean + config.blur_std * _randn((b,), generator, pressure)).clamp_min(0.0)
+    # left on the generator's device: the blur reads the largest sigma for its kernel size, which on a
+    # GPU tensor would wait for the GPU every step
+    sigma = (config.blur_mean + config.blur_std * _randn((b,), generator, None).to(pressure.dtype)).clamp_min(0.0)
     if config.cut_feet_p > 0:  # drawn after the rest, so the paper's noise is the same with or without
         keep = _keep_rows(mask, generator, config)
         noisy, mask = noisy * keep, mask * keep

@@ -398,6 +398,12 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                             c_true[t_idx] if c_true is not None else None,
                             paper_joints_betas=config.loss_sigmas == "paper")
 
+    if device.type == "cuda":
+        # the whole set on the GPU once (a few hundred MB at most): a step then copies nothing from the
+        # host, and a blocking copy would hold the host until the GPU had finished its queue, every step
+        data = {k: v.to(device) if torch.is_tensor(v) else v for k, v in data.items()}
+        q_true, c_true = (None if x is None else x.to(device) for x in (q_true, c_true))
+        train_idx, val_idx = train_idx.to(device), val_idx.to(device)
     use_amp = (config.amp and device.type == "cuda") or (config.cpu_amp and device.type == "cpu")
     amp_dtype = (torch.bfloat16 if device.type == "cpu" or (use_amp and torch.cuda.is_bf16_supported())
                  else torch.float16)
@@ -427,7 +433,7 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                 torch.manual_seed(seed)
                 gen = torch.Generator().manual_seed(seed)
                 noise_gen = torch.Generator().manual_seed(seed + 1) if config.noise else None
-                order = train_idx[torch.randperm(len(train_idx), generator=gen)]
+                order = train_idx[torch.randperm(len(train_idx), generator=gen).to(train_idx.device)]
                 net.train()
                 net.mod1.train(stage == 1)
                 # summed on the device and read once an epoch: a float() per step would wait for the GPU every step

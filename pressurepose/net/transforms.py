@@ -111,11 +111,15 @@ def gaussian_blur(images: torch.Tensor, sigma: float | torch.Tensor, truncate: f
             return images
         k = _gaussian_kernel(max(float(sigma), 0.0), radius, images.dtype, images.device).expand(n, -1)
     else:
-        sig = torch.as_tensor(sigma, dtype=images.dtype, device=images.device)
-        sig = sig.clamp_min(0).expand(lead).reshape(-1)
-        radius = int(truncate * float(sig.max()) + 0.5) if sig.numel() else 0
+        # the kernel's size from the sigmas where they are (a CPU tensor: no wait for the GPU), then the
+        # sigmas to the images' device without waiting either
+        sig = torch.as_tensor(sigma, dtype=images.dtype).clamp_min(0)
+        radius = int(truncate * float(sig.max()) + 0.5) if sig.numel() and n else 0
         if radius == 0:
             return images
+        if images.device.type == "cuda" and sig.device.type == "cpu":
+            sig = sig.pin_memory()
+        sig = sig.to(images.device, non_blocking=True).expand(lead).reshape(-1)
         k = gaussian_kernels(sig, radius)  # (N, K)
     x = _pad_symmetric(images.reshape(1, n, h, w), radius, radius)
     x = F.conv2d(x, k[:, None, :, None], groups=n)  # along H

@@ -72,6 +72,16 @@ def test_gender_selects_the_body_per_element():
         v, j = model.forward(params.betas[i].numpy(), params.pose[i].numpy(), params.transl[i].numpy())
         np.testing.assert_allclose(verts[i].numpy(), v[0], atol=1e-5)
         np.testing.assert_allclose(joints[i].numpy(), j[0], atol=1e-5)
+    # the GPU's path (both bodies for the whole batch, picked per element) gives the same bodies
+    args = dict(betas=params.betas, body_pose=params.body_pose, global_orient=params.global_orient,
+                transl=params.transl, check=False)
+    for vertices in (True, False):
+        v_sel, j_sel = body._posed_by_selection(args, gender, vertices)
+        torch.testing.assert_close(j_sel, joints, atol=1e-6, rtol=0)
+        if vertices:
+            torch.testing.assert_close(v_sel, verts, atol=1e-6, rtol=0)
+        else:
+            assert v_sel is None
 
 
 def test_ablations_change_the_inputs():

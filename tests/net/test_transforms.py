@@ -45,6 +45,10 @@ def test_blur_per_image_sigma_and_identity():
     for i in (1, 2):
         assert torch.allclose(y[i], gaussian_blur(x[i:i + 1], float(sig[i]))[0], atol=1e-9)
     assert torch.equal(gaussian_blur(x, 0.0), x)
+    # one sigma for every image as a tensor, and an empty batch
+    assert torch.allclose(gaussian_blur(x, torch.tensor(0.4, dtype=x.dtype)), gaussian_blur(x, 0.4), atol=1e-12)
+    empty = torch.zeros(0, 6, 5, dtype=x.dtype)
+    assert gaussian_blur(empty, torch.tensor(1.0)).shape == empty.shape
 
 
 def test_sobel_of_a_step_edge():
