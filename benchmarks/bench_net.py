@@ -149,10 +149,30 @@ def dispatched_ops(fn) -> int:
     return Count.n
 
 
+def host_waits(fn) -> int:
+    """How many times one call of ``fn`` makes the host wait for the GPU (reads of GPU values, blocking
+    copies), counted by PyTorch's sync debug mode; 0 off a GPU."""
+    if not torch.cuda.is_available():
+        return 0
+    import warnings
+
+    torch.cuda.synchronize()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        torch.cuda.set_sync_debug_mode("warn")
+        try:
+            fn()
+        finally:
+            torch.cuda.set_sync_debug_mode("default")
+    return sum("synchroniz" in str(w.message) for w in caught)
+
+
 def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu", amp: bool = False,
                    compile_cnns: bool = False) -> dict[str, tuple[float, float, int]]:
-    """{module: (images per CPU-second, images per wall-second, operations dispatched per step)} of
-    training steps as :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2).
+    """{module: (images per CPU-second, images per wall-second, count)} of training steps as
+    :func:`pressurepose.net.train.train` runs them (noise on, Mod1 frozen for Mod2); count: operations
+    dispatched per step on the CPU (:func:`dispatched_ops`), the host's waits per step on a GPU
+    (:func:`host_waits`; the step itself synchronises once at its end to be timed).
     compile_cnns: the CNNs through ``torch.compile`` (measured only; training does not use it)."""
     from pressurepose.net.train import TrainConfig, _forward
 
@@ -176,7 +196,7 @@ def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu"
         opt = torch.optim.Adam(module.parameters(), lr=2e-5, weight_decay=5e-4)
         net.train()
         net.mod1.train(stage == 1)
-        gen = torch.Generator(device=device).manual_seed(0)
+        gen = torch.Generator().manual_seed(0)  # on the CPU, as train() draws its noise
 
         def step():
             with torch.autocast(device, dtype=dtype, enabled=amp):
@@ -190,7 +210,8 @@ def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu"
                 torch.cuda.synchronize()
 
         cpu, wall = timed(step, steps)
-        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = (batch / cpu, batch / wall, dispatched_ops(step))
+        count = host_waits(step) if device == "cuda" else dispatched_ops(step)
+        out[f"Mod{stage} ({'L1' if stage == 1 else 'L2'})"] = (batch / cpu, batch / wall, count)
     for q in net.mod1.parameters():
         q.requires_grad_(True)
     return out
@@ -304,9 +325,11 @@ def main(argv=None) -> int:
         lines += ["", "torch.compile row: both CNNs compiled by inductor (C++ made by the local gcc, offline); "
                       "the timed steps follow two warm-up steps, so compiling is not in the figures."]
     if train_gpu:
-        lines += ["", f"Training, GPU ({torch.cuda.get_device_name()}), batch 128, mixed precision:", "",
-                  "| module | images/s (wall) |", "|---|---|",
-                  *[f"| {k} | {w:.1f} |" for k, (_, w, _) in train_gpu.items()]]
+        lines += ["", f"Training, GPU ({torch.cuda.get_device_name()}), batch 128, mixed precision; host waits: "
+                      "the times one step makes the host wait for the GPU (PyTorch's sync debug mode), counting "
+                      "the synchronisation the benchmark adds to time each step:", "",
+                  "| module | images/s (wall) | host waits per step |", "|---|---|---|",
+                  *[f"| {k} | {w:.1f} | {c} |" for k, (_, w, c) in train_gpu.items()]]
     else:
         lines += ["", "No CUDA GPU on this machine: GPU training speed not measured."]
     if args.model and args.data:
