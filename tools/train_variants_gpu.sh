@@ -18,6 +18,19 @@ export PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 PYTHONPATH=$PWD OMP_NUM_THRE
 nvidia-smi -L 2>/dev/null; echo "cpus: $(nproc)"
 python3 -c "import torch; print('torch', torch.__version__, torch.cuda.is_available() and torch.cuda.get_device_name())"
 (nvidia-smi --query-gpu=timestamp,utilization.gpu,memory.used --format=csv -l 20 > "$OUT/gpu.csv" 2>&1 &)
+# Preflight (about half a minute; PREFLIGHT=0 skips it): a training step's speed and how often it makes the
+# host wait for the GPU (session 14 removed the waits it knew of; 0 or 1 per step is expected, the 1 being
+# the synchronisation the benchmark adds to time a step), for the half and the paper CNN at batch 32.
+if [ "${PREFLIGHT:-1}" = 1 ]; then
+  python3 - <<'PY' 2>&1 | tee "$OUT/preflight.log"
+from benchmarks.bench_net import bench_training, bodies, make_net
+female, male, _ = bodies()
+for cnn in ("half", "paper"):
+    for k, (_, per_s, waits) in bench_training(make_net(female, male, "cuda", cnn=cnn), 32, 20, device="cuda",
+                                               amp=True).items():
+        print(f"preflight {cnn} CNN {k}: {per_s:.0f} images/s, {32000 / per_s:.1f} ms a step, host waits {waits}")
+PY
+fi
 run() {
   local n=$1; shift
   # shellcheck disable=SC2086  # the variant's arguments are meant to split
