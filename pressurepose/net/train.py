@@ -330,6 +330,14 @@ def stage_lr(config: TrainConfig, stage: int, epoch: int = 0, epochs: int = 1) -
     return lr
 
 
+def _fits_on_gpu(device: torch.device, *tensors, share: float = 0.25) -> bool:
+    """Whether the tensors (others ignored) take at most ``share`` of the GPU's free memory (the
+    paper's 184,000 samples with their maps take about 2.3 GB; the training itself needs the rest)."""
+    need = sum(t.numel() * t.element_size() for t in tensors if torch.is_tensor(t))
+    free, _ = torch.cuda.mem_get_info(device)
+    return need <= share * free
+
+
 def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: TrainConfig, maps: bool):
     if noise_gen is not None:
         clean = apply_floor(pressure, net.config.inputs.contact_floor_mmhg)
@@ -398,9 +406,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                             c_true[t_idx] if c_true is not None else None,
                             paper_joints_betas=config.loss_sigmas == "paper")
 
-    if device.type == "cuda":
-        # the whole set on the GPU once (a few hundred MB at most): a step then copies nothing from the
-        # host, and a blocking copy would hold the host until the GPU had finished its queue, every step
+    if device.type == "cuda" and _fits_on_gpu(device, *data.values(), q_true, c_true):
+        # the whole set on the GPU once: a step then copies nothing from the host, and a blocking copy
+        # would hold the host until the GPU had finished its queue, every step
         data = {k: v.to(device) if torch.is_tensor(v) else v for k, v in data.items()}
         q_true, c_true = (None if x is None else x.to(device) for x in (q_true, c_true))
         train_idx, val_idx = train_idx.to(device), val_idx.to(device)

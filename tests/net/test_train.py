@@ -119,3 +119,13 @@ def test_cosine_schedule_sets_each_epochs_rate(tmp_path):
     assert [lr for _, lr in got] == pytest.approx([lr for _, lr in want], rel=1e-9)
     with pytest.raises(BadInput, match="lr_schedule"):
         TrainConfig(lr_schedule="step")
+
+
+def test_training_set_goes_to_the_gpu_only_when_it_leaves_room(monkeypatch):
+    from pressurepose.net.train import _fits_on_gpu
+
+    monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (4000, 8000))  # bytes free, total
+    small, big = torch.zeros(250, dtype=torch.float32), torch.zeros(251, dtype=torch.float32)  # 1,000 / 1,004 B
+    assert _fits_on_gpu(torch.device("cuda"), small, None, "not a tensor")
+    assert not _fits_on_gpu(torch.device("cuda"), big)
+    assert not _fits_on_gpu(torch.device("cuda"), small, torch.zeros(1, dtype=torch.uint8))
