@@ -64,6 +64,16 @@ def _cross_matrix_map(dtype: torch.dtype, device: torch.device) -> torch.Tensor:
         return E.reshape(3, 9)
 
 
+@functools.lru_cache(maxsize=8)
+def _homogeneous_row(dtype: torch.dtype, device: torch.device) -> torch.Tensor:
+    """(1, 4) the last row [0 0 0 1] of a 4 x 4 transform, made once per dtype and device (not from a
+    Python list per call: on a GPU that is a blocking copy)."""
+    with torch.inference_mode(False):  # usable in autograd even when first made during inference
+        row = torch.zeros(1, 4, dtype=dtype, device=device)
+        row[0, 3] = 1.0
+        return row
+
+
 def _tree_jumps(parents: list[int]) -> list[list[int]]:
     """Index tables for posing the kinematic tree (root 0) by pointer jumping: a virtual identity
     node is appended at index J (the root's parent and its own); table k holds each node's ancestor
@@ -184,7 +194,7 @@ class BodyLayer(nn.Module):
         t = torch.cat([J, J.new_zeros(b, 1, 3)], 1)
         t = t - t.index_select(1, jumps[0])  # each joint from its parent (the root from the origin)
         R = torch.cat([rot, torch.eye(3, dtype=rot.dtype, device=rot.device).expand(b, 1, 3, 3)], 1)
-        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=rot.dtype, device=rot.device).expand(b, n + 1, 1, 4)
+        bottom = _homogeneous_row(rot.dtype, rot.device).expand(b, n + 1, 1, 4)
         T = torch.cat([torch.cat([R, t[..., None]], -1), bottom], -2)
         for up in jumps:  # each node's transform from the ancestor 2^k links up, then from twice as far
             T = T.index_select(1, up) @ T

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import torch
 
 from pressurepose.errors import BadInput
-from pressurepose.net.transforms import contact_map
+from pressurepose.net.transforms import contact_map, to_device_async
 
 
 @dataclass(frozen=True)
@@ -45,11 +45,7 @@ def _randn(shape, generator: torch.Generator, like: torch.Tensor | None) -> torc
     """Standard normal draws (float32) from ``generator``, on ``like``'s device and dtype (None: left
     on the generator's device). The copy does not wait for the GPU to finish its queued work."""
     z = torch.randn(shape, generator=generator, device=generator.device, dtype=torch.float32)
-    if like is None:
-        return z
-    if like.device.type == "cuda" and z.device.type == "cpu":
-        z = z.pin_memory()  # from pinned memory the copy is queued like a kernel
-    return z.to(device=like.device, dtype=like.dtype, non_blocking=True)
+    return z if like is None else to_device_async(z, like.device, like.dtype)
 
 
 def add_noise(pressure: torch.Tensor, generator: torch.Generator, config: NoiseConfig = NoiseConfig(),

@@ -96,6 +96,14 @@ def gaussian_kernels(sigma: torch.Tensor, radius: int) -> torch.Tensor:
     return k / k.sum(-1, keepdim=True)
 
 
+def to_device_async(t: torch.Tensor, device: torch.device, dtype: torch.dtype | None = None) -> torch.Tensor:
+    """``t`` on ``device`` (and ``dtype``) without the host waiting for the GPU: a CPU tensor bound for
+    a GPU goes through pinned memory, from which the copy is queued like a kernel."""
+    if device.type == "cuda" and t.device.type == "cpu":
+        t = t.pin_memory()
+    return t.to(device=device, dtype=dtype, non_blocking=True)
+
+
 def gaussian_blur(images: torch.Tensor, sigma: float | torch.Tensor, truncate: float = 4.0) -> torch.Tensor:
     """Gaussian blur of images (..., H, W) with standard deviation ``sigma`` in pixels.
 
@@ -117,9 +125,7 @@ def gaussian_blur(images: torch.Tensor, sigma: float | torch.Tensor, truncate: f
         radius = int(truncate * float(sig.max()) + 0.5) if sig.numel() and n else 0
         if radius == 0:
             return images
-        if images.device.type == "cuda" and sig.device.type == "cpu":
-            sig = sig.pin_memory()
-        sig = sig.to(images.device, non_blocking=True).expand(lead).reshape(-1)
+        sig = to_device_async(sig, images.device).expand(lead).reshape(-1)
         k = gaussian_kernels(sig, radius)  # (N, K)
     x = _pad_symmetric(images.reshape(1, n, h, w), radius, radius)
     x = F.conv2d(x, k[:, None, :, None], groups=n)  # along H
