@@ -3,7 +3,7 @@
     .venv/bin/python -m benchmarks.bench_models --model shipped=pressurepose/net/assets/pressurenet.json \\
         --model new=runs/gpu/A/pressurenet.json --test runs/shipped/data/test \\
         [--extra runs/extra/data/test] [--real ../shared/data/pmd-experiment-i] [--out runs/bench_models] \\
-        [--section NAME --title TEXT]
+        [--section NAME --title TEXT] [--mirrored]
 
 Each model is read with ``pressurepose evaluate`` on ``--test`` (the paper recipe's held-out
 partitions: issue 14's simulated goals) and on ``--extra`` (more held-out partitions, e.g.
@@ -39,17 +39,17 @@ def _cli(*args: str) -> None:
         raise SystemExit(f"pressurepose {' '.join(args)} failed")
 
 
-def sim_report(model: str, data: Path, out: Path) -> dict:
+def sim_report(model: str, data: Path, out: Path, mirror: bool = False) -> dict:
     """``pressurepose evaluate``'s summary of ``model`` on ``data`` (kept in ``out``)."""
     if not (out / "report.json").is_file():
-        _cli("evaluate", "--model", model, "--data", str(data), "--out", str(out))
+        _cli("evaluate", "--model", model, "--data", str(data), "--out", str(out), *(["--mirror"] if mirror else []))
     return json.loads((out / "report.json").read_text())["summary"]
 
 
-def real_report(model: str, data: Path, out: Path) -> dict:
+def real_report(model: str, data: Path, out: Path, mirror: bool = False) -> dict:
     """``pressurepose evaluate-real``'s metrics of ``model`` on ``data`` (kept in ``out``)."""
     if not (out / "metrics.json").is_file():
-        _cli("evaluate-real", str(data), "--model", model, "--out", str(out))
+        _cli("evaluate-real", str(data), "--model", model, "--out", str(out), *(["--mirror"] if mirror else []))
     return json.loads((out / "metrics.json").read_text())
 
 
@@ -128,36 +128,46 @@ def main(argv=None) -> int:
     ap.add_argument("--section", default=None, help="docs/RESULTS.md section to replace (default: print only)")
     ap.add_argument("--title", default="PressureNets side by side (`benchmarks/bench_models.py`)")
     ap.add_argument("--note", default="", help="text under the table (how the models were made)")
+    ap.add_argument("--mirrored", action="store_true",
+                    help="also read every model with test-time mirror averaging (`--mirror`), one more row each")
     args = ap.parse_args(argv)
     names = [n for n, _ in args.model]
     if len(set(names)) != len(names):
         ap.error(f"model names must differ: {names}")
     rows, diffs = [], []
+
+    def diff_row(name: str, base_dir: Path, other_dir: Path) -> str:
+        d = paired_differences(real_rows(base_dir / "real"), real_rows(other_dir / "real"))
+        return (f"| {name} | {d['posture'][0]:+.3f} ({d['posture'][1]:+.3f} to {d['posture'][2]:+.3f}) | "
+                f"{d['wedge'][0]:+.3f} ({d['wedge'][1]:+.3f} to {d['wedge'][2]:+.3f}) | "
+                f"{100 * d['stature_m'][0]:+.2f} ({100 * d['stature_m'][1]:+.2f} to "
+                f"{100 * d['stature_m'][2]:+.2f}) |")
+
     for name, path in args.model:
-        out = args.out / name
-        test = sim_report(path, args.test, out / "test")
-        extra = sim_report(path, args.extra, out / "extra") if args.extra else None
-        real = real_report(path, args.real, out / "real") if args.real else None
-        rows.append(row(name, test, extra, real))
-        if real is not None and name != names[0]:
-            d = paired_differences(real_rows(args.out / names[0] / "real"), real_rows(out / "real"))
-            diffs.append(f"| {name} | {d['posture'][0]:+.3f} ({d['posture'][1]:+.3f} to {d['posture'][2]:+.3f}) | "
-                         f"{d['wedge'][0]:+.3f} ({d['wedge'][1]:+.3f} to {d['wedge'][2]:+.3f}) | "
-                         f"{100 * d['stature_m'][0]:+.2f} ({100 * d['stature_m'][1]:+.2f} to "
-                         f"{100 * d['stature_m'][2]:+.2f}) |")
+        for mirror in (False, True) if args.mirrored else (False,):
+            label, out = (f"{name}, mirror-averaged", args.out / f"{name}-mirror") if mirror else (name, args.out / name)
+            test = sim_report(path, args.test, out / "test", mirror)
+            extra = sim_report(path, args.extra, out / "extra", mirror) if args.extra else None
+            real = real_report(path, args.real, out / "real", mirror) if args.real else None
+            rows.append(row(label, test, extra, real))
+            if real is not None and mirror:
+                diffs.append(diff_row(f"{label} minus {name}", args.out / name, out))
+            elif real is not None and name != names[0]:
+                diffs.append(diff_row(f"{name} minus {names[0]}", args.out / names[0], out))
     command = "python -m benchmarks.bench_models " + " ".join(f"--model {n}=..." for n in names)
     text = "\n".join([
         f"### {args.title}", "",
         f"`{command} --test {args.test}" + (f" --extra {args.extra}" if args.extra else "")
-        + (f" --real {args.real}" if args.real else "") + f"`; {platform.machine()}, {datetime.date.today()}. "
+        + (f" --real {args.real}" if args.real else "") + (" --mirrored" if args.mirrored else "")
+        + f"`; {platform.machine()}, {datetime.date.today()}. "
         "Simulated: `pressurepose evaluate` (MPJPE of Mod2; BL = the mean-pose baseline). Real: `pressurepose "
         "evaluate-real` (posture accuracy over every estimate, each image read with both body models; the wedge "
         "postures and flat side lying by PMD posture).", "",
         HEADER, "|" + "---|" * HEADER.count(" | ") + "---|", *rows, "",
-        *([f"Real images, each model minus `{names[0]}` on the same estimates, with 90 % intervals from resampling "
+        *([f"Real images, paired differences on the same estimates, with 90 % intervals from resampling "
            "PMD-I's people (2,000 draws of whole subjects; the spread a test set of so few people leaves, not the "
            "spread between trainings):", "",
-           "| model | posture accuracy | share of wedge postures right | stature MAE (cm) |", "|---|---|---|---|",
+           "| difference | posture accuracy | share of wedge postures right | stature MAE (cm) |", "|---|---|---|---|",
            *diffs, ""] if diffs else []),
         args.note])
     print(text)

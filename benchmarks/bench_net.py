@@ -101,7 +101,9 @@ def user_model(female, male, tmp: str):
 def bench_estimate(model, frames: int, batches=(8, 64)) -> dict[str, tuple[float, float, int]]:
     """{label: (CPU s, wall s, images)} per call of ``estimate`` as a user calls it."""
     image = fake_pressure(1)[0].numpy()
-    res = {"one image, estimate(image, 'f')": (*timed(lambda: estimate(image, "f", model=model), frames), 1)}
+    res = {"one image, estimate(image, 'f')": (*timed(lambda: estimate(image, "f", model=model), frames), 1),
+           "one image, mirror-averaged, estimate(image, 'f', mirror=True)":
+               (*timed(lambda: estimate(image, "f", model=model, mirror=True), frames), 1)}
     for b in batches:
         imgs = fake_pressure(b, seed=1).numpy()
         genders = ["f", "m"] * (b // 2) + ["f"] * (b % 2)

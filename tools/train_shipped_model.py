@@ -154,6 +154,8 @@ def main() -> int:
     p.add_argument("--contact-floor", type=float, default=5.0, help="input contact floor, mmHg [5]")
     p.add_argument("--cut-feet", type=float, default=0.0,
                    help="share of training images cut short at the foot end (train --cut-feet) [0]")
+    p.add_argument("--mirror-p", type=float, default=0.0,
+                   help="chance that a training sample is mirrored left to right (train --mirror-p) [0]")
     p.add_argument("--gender-input", action=argparse.BooleanOptionalAction, default=True,
                    help="also feed the gender flag to the CNN (not in the paper; --no-gender-input: the paper's) [on]")
     p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
@@ -226,6 +228,7 @@ def main() -> int:
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
         *(["--cut-feet", str(args.cut_feet)] if args.cut_feet else []),
+        *(["--mirror-p", str(args.mirror_p)] if args.mirror_p else []),
         *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", str(args.seed))
     if not args.train_data or (data / "test").is_dir():
         cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))

@@ -18,6 +18,9 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
+    p.add_argument("--mirror", action="store_true",
+                   help="also read each image's left-right mirror and average the two bodies (test-time mirror "
+                        "averaging; about twice the work)")
     from pressurepose.net.commands import add_body_arguments
 
     add_body_arguments(p)
@@ -44,7 +47,7 @@ def run_evaluate(args) -> int:
     if data.grid.shape != net.config.grid.shape:
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
-    result = evaluate(net, data, batch_size=args.batch_size, progress=True)
+    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:
@@ -52,7 +55,7 @@ def run_evaluate(args) -> int:
         write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
                                              f"({len(data)} samples)\n\n{table}\n")
         write_json_atomic(out / "report.json", {"model": str(args.model), "data": str(args.data),
-                                                "summary": result["summary"]})
+                                                "mirror": bool(args.mirror), "summary": result["summary"]})
         print(f"\nreport written to {out}")
     return 0
 
@@ -89,6 +92,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
     p.add_argument("--device", default="cpu", help="cpu (default), cuda ...")
+    p.add_argument("--mirror", action="store_true",
+                   help="also read each image's left-right mirror and average the two bodies (test-time mirror "
+                        "averaging; about twice the work)")
 
 
 def run_evaluate_real(args) -> int:
@@ -107,7 +113,7 @@ def run_evaluate_real(args) -> int:
     if args.force_gender and args.gender == "both":
         raise BadInput("--force-gender needs --gender f or m")
     config = RealEvalConfig(gender=args.gender, force_gender=args.force_gender, contact_mmhg=args.contact_mmhg,
-                            batch_size=args.batch_size)
+                            batch_size=args.batch_size, mirror=args.mirror)
     real = read_real(args.dir, frames=args.frames)
     if args.gain is not None:
         if not args.gain > 0:
@@ -118,7 +124,7 @@ def run_evaluate_real(args) -> int:
     s = result["summary"]
     metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
                "mat": real.mat.name, "units": real.units, "frames": args.frames, "gender": args.gender,
-               "gain": real.gain, "contact_mmhg": result["contact_mmhg"], "n_images": result["n_images"], "skipped": result["skipped"],
+               "gain": real.gain, "mirror": bool(args.mirror), "contact_mmhg": result["contact_mmhg"], "n_images": result["n_images"], "skipped": result["skipped"],
                **s}
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "metrics.json", metrics)

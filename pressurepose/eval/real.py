@@ -36,13 +36,15 @@ class RealEvalConfig:
     the model's own contact floor (what its contact channel means), or 2 mmHg for a model without
     one (the paper's, which counts any reading). weak_fraction: images whose
     raw total is below this fraction of their subject's median are left out. batch_size: images
-    per forward pass."""
+    per forward pass. mirror: average each estimate with the reading of the mirrored image
+    (:mod:`pressurepose.net.mirror`)."""
 
     gender: str = "both"
     force_gender: bool = False
     contact_mmhg: float | None = None
     weak_fraction: float = 0.1
     batch_size: int = 32
+    mirror: bool = False
 
     def __post_init__(self):
         if self.gender not in GENDER_CHOICES:
@@ -81,7 +83,7 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
         genders += use
     idx = np.array(idx)
     contact_mmhg = contact_threshold(net, config)
-    est = estimate(x[idx], genders, model=net, batch_size=config.batch_size)
+    est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],

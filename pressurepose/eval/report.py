@@ -36,14 +36,18 @@ def _layer_forward(net: PressureNet, gender: int):
 
 
 @torch.no_grad()
-def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = False) -> dict:
+def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = False, mirror: bool = False) -> dict:
     """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data`` (a
     :class:`pressurepose.net.data.LoadedData`), plus the summary (:func:`summarise`).
 
     Vertex errors compare with the true bodies posed by the network's own body layer (same
     topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
+    mirror: average each estimate with the network's reading of the mirrored image
+    (:mod:`pressurepose.net.mirror`).
     """
     from tqdm import tqdm
+
+    from pressurepose.net.mirror import mirror_averaged
 
     if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
         raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
@@ -60,7 +64,8 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
     for s in tqdm(range(0, n, batch_size), desc="evaluate", unit="batch", disable=not progress):
         sl = slice(s, min(s + batch_size, n))
         gender = t["gender"][sl].to(device)
-        out1, out2 = net(t["pressure"][sl].to(device), gender)
+        pressure = t["pressure"][sl].to(device)
+        out1, out2 = mirror_averaged(net, pressure, gender) if mirror else net(pressure, gender)
         true_verts, _ = net.body(_params(t["betas"][sl].to(device), t["pose"][sl].to(device),
                                          t["transl"][sl].to(device)), gender)
         tv = true_verts.cpu().numpy()

@@ -50,6 +50,9 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cut-feet", type=float, default=0.0, metavar="P",
                    help="with the noise model, the share of training images cut short at the foot end, as by a "
                         "mat shorter than the body (the last 1-8 rows of contact dropped; not in the paper) [0]")
+    p.add_argument("--mirror-p", type=float, default=d.mirror_p, metavar="P",
+                   help="chance that a training sample is mirrored left to right in a step (image, joints and "
+                        "maps; not in the paper) [0]")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
@@ -77,7 +80,7 @@ def run_train(args) -> int:
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
                          cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
-                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet))
+                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet), mirror_p=args.mirror_p)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
     tensors = {k: v for k, v in data.tensors.items() if k != "partition"}
@@ -125,6 +128,9 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")
     p.add_argument("--mesh-format", choices=("ply", "obj"), default="ply", help="mesh file format (default ply)")
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
+    p.add_argument("--mirror", action="store_true",
+                   help="also read each image's left-right mirror and average the two bodies (test-time mirror "
+                        "averaging; about twice the work)")
     add_body_arguments(p)
 
 
@@ -166,7 +172,7 @@ def run_infer(args) -> int:
     for note in pressure_warnings(check_pressure(pressure, net.config.grid.shape, what=str(args.pressure_file)),
                                   what=str(args.pressure_file)):
         print(f"warning: {note}", file=sys.stderr)
-    est = estimate(pressure, gender, model=net, progress=pressure.ndim == 3 and len(pressure) > 64)
+    est = estimate(pressure, gender, model=net, progress=pressure.ndim == 3 and len(pressure) > 64, mirror=args.mirror)
     paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
     for i in range(min(len(est), 5)):

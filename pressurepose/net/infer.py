@@ -252,10 +252,13 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
 
 @torch.inference_mode()
 def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64,
-                progress: bool = False):
+                progress: bool = False, mirror: bool = False):
     """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch
-    (progress: a progress bar over the batches)."""
+    (progress: a progress bar over the batches; mirror: average each estimate with the network's
+    reading of the mirrored image, :mod:`pressurepose.net.mirror`, about twice the work)."""
     from tqdm import tqdm
+
+    from pressurepose.net.mirror import mirror_averaged
 
     if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
         raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
@@ -266,23 +269,26 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
     results = []
     for s in tqdm(range(0, len(pressure), batch_size), desc="infer", unit="batch", disable=not progress):
         p = torch.from_numpy(pressure[s:s + batch_size]).to(device)
-        results.append(net(p, g[s:s + batch_size].to(device)))
+        gb = g[s:s + batch_size].to(device)
+        results.append(mirror_averaged(net, p, gb) if mirror else net(p, gb))
     return results
 
 
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
-             progress: bool = False) -> Estimate:
+             progress: bool = False, mirror: bool = False) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch).
     gender: 'f' / 'm' (or female / male) for all images, or one per image.
     model: None (the shipped model), a model path, or a loaded :class:`PressureNet`.
     bodies: (female, male) body model specs overriding the stored ones (see :func:`resolve_model`).
+    mirror: also read each image's left-right mirror and average the two bodies
+    (:mod:`pressurepose.net.mirror`; about twice the work).
     """
     net = resolve_model(model, bodies)
     arr = check_pressure(pressure, net.config.grid.shape)
     genders = _genders(gender, len(arr))
-    parts = run_network(net, arr, genders, batch_size, progress)
+    parts = run_network(net, arr, genders, batch_size, progress, mirror)
 
     def cat(fn):
         items = [fn(o1, o2) for o1, o2 in parts]

@@ -60,6 +60,16 @@ def quat_to_axis_angle(q: torch.Tensor) -> torch.Tensor:
     return v * factor[..., None]
 
 
+def axis_angle_to_quat(aa: torch.Tensor) -> torch.Tensor:
+    """Unit quaternions (..., 4) (w, x, y, z) of axis-angle vectors (..., 3); smooth at angle 0."""
+    angle = torch.linalg.vector_norm(aa, dim=-1, keepdim=True)
+    half = 0.5 * angle
+    small = angle < 1e-6
+    # sin(a/2)/a -> 1/2 - a^2/48 near 0
+    factor = torch.where(small, 0.5 - angle * angle / 48.0, torch.sin(half) / torch.where(small, torch.ones_like(angle), angle))
+    return torch.cat([torch.cos(half), aa * factor], -1)
+
+
 def euler_to_world_quat(euler: torch.Tensor) -> torch.Tensor:
     """Quaternion (..., 4) of W for bed-frame Euler angles (..., 3) = (roll, pitch, yaw)."""
     roll, pitch, yaw = euler.unbind(-1)

@@ -50,7 +50,8 @@ from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import MatGrid, PMRConfig, pmr
-from pressurepose.net.transforms import InputConfig, apply_floor
+from pressurepose.net.mirror import mirror_some
+from pressurepose.net.transforms import InputConfig, apply_floor, to_device_async
 
 LR_SCHEDULES = ("constant", "cosine")
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
@@ -74,7 +75,9 @@ class TrainConfig:
     CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
     layer, PMR and losses stay float32), like ``amp`` on CUDA. contact_floor_mmhg: the input's
     sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
-    as contact); the model keeps it, so inference applies the same floor.
+    as contact); the model keeps it, so inference applies the same floor. mirror_p: the chance
+    that a training sample is mirrored left to right in a step (its image, joints and ground-truth
+    maps; :func:`pressurepose.net.mirror.mirror_some`); 0, the paper's, never does.
     """
 
     epochs_mod1: int = 100
@@ -102,6 +105,7 @@ class TrainConfig:
     cnn: str = "paper"
     cpu_amp: bool = False
     contact_floor_mmhg: float = 0.0
+    mirror_p: float = 0.0
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
@@ -121,6 +125,8 @@ class TrainConfig:
             raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
         if not 0 <= self.contact_floor_mmhg < float("inf"):
             raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
+        if not 0 <= self.mirror_p <= 1:
+            raise BadInput(f"mirror_p = {self.mirror_p}; expected a chance from 0 to 1")
         if self.cnn not in CNN_VARIANTS:
             raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
 
@@ -178,6 +184,7 @@ def _with_defaults(stored: dict | None) -> dict | None:
     if isinstance(stored.get("train"), dict):
         stored["train"].setdefault("cnn", "paper")
         stored["train"].setdefault("contact_floor_mmhg", 0.0)
+        stored["train"].setdefault("mirror_p", 0.0)
         if isinstance(stored["train"].get("noise_config"), dict):
             stored["train"]["noise_config"].setdefault("cut_feet_p", 0.0)
             stored["train"]["noise_config"].setdefault("cut_feet_rows", 8)
@@ -441,6 +448,7 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                 torch.manual_seed(seed)
                 gen = torch.Generator().manual_seed(seed)
                 noise_gen = torch.Generator().manual_seed(seed + 1) if config.noise else None
+                mirror_gen = torch.Generator().manual_seed(seed + 2) if config.mirror_p > 0 else None
                 order = train_idx[torch.randperm(len(train_idx), generator=gen).to(train_idx.device)]
                 net.train()
                 net.mod1.train(stage == 1)
@@ -456,12 +464,15 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     idx = order[s:s + config.batch_size]
                     pressure = data["pressure"][idx].to(device, non_blocking=True)
                     gender = data["gender"][idx].to(device)
+                    joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
+                    q_b, c_b = (q_true[idx].to(device), c_true[idx].to(device)) if l2 else (None, None)
+                    if mirror_gen is not None:
+                        flip = to_device_async(torch.rand(len(idx), generator=mirror_gen) < config.mirror_p, device)
+                        pressure, joints, q_b, c_b = mirror_some(flip, grid.size_m[0], pressure, joints, q_b, c_b)
                     with torch.autocast(device.type, dtype=amp_dtype, enabled=use_amp):
                         out = _forward(net, stage, pressure, gender, noise_gen, config, maps=l2)
-                        joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
                         if l2:
-                            loss, parts = loss_l2(out, joints, betas, q_true[idx].to(device),
-                                                  c_true[idx].to(device), scales)
+                            loss, parts = loss_l2(out, joints, betas, q_b, c_b, scales)
                         else:
                             loss, parts = loss_l1(out, joints, betas, scales)
                     opt.zero_grad(set_to_none=True)
