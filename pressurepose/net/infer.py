@@ -33,7 +33,7 @@ class Estimate:
     vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
     reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
-    model's mat.
+    model's mat; mirror: whether each body averages the readings of the image and of its mirror.
     """
 
     betas: np.ndarray
@@ -48,6 +48,7 @@ class Estimate:
     gender: list[str]
     mod1_joints: np.ndarray
     grid: MatGrid
+    mirror: bool = False
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
@@ -68,7 +69,7 @@ class Estimate:
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "estimate.json", out / "estimate.npz"]
         write_json_atomic(paths[0], {"units": "metres, radians (SMPL axis-angle, root first); bed frame",
-                                     "estimates": self.to_records()})
+                                     "mirror_averaged": bool(self.mirror), "estimates": self.to_records()})
         save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
                         vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
                         gender=np.array(self.gender))
@@ -298,4 +299,4 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
-                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid)
+                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror))

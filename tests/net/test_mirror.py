@@ -3,6 +3,7 @@ the mirrored parameters, the rotation midpoint is the geodesic one, and the aver
 mirrored image is the mirror of the averaged estimate of the image, for any network."""
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -116,6 +117,8 @@ def test_estimate_and_the_cli_take_mirror(net, tmp_path):
                  str(tmp_path / "e"), "--mirror", "--max-figures", "0"]) == 0
     got = np.load(tmp_path / "e" / "estimate.npz")["joints"]
     np.testing.assert_allclose(got, mirrored.joints, atol=1e-5)
+    assert mirrored.mirror and not plain.mirror
+    assert json.loads((tmp_path / "e" / "estimate.json").read_text())["mirror_averaged"] is True
 
 
 def test_mirror_some_mirrors_only_the_chosen_samples():
