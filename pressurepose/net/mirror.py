@@ -27,6 +27,8 @@ and joints; the shape is unchanged): training's ``mirror_p`` (``train --mirror-p
 
 from __future__ import annotations
 
+import warnings
+
 import torch
 
 from pressurepose.body.joints import NUM_JOINTS, mirror_permutation
@@ -34,6 +36,7 @@ from pressurepose.net.outputs import BodyParams
 from pressurepose.net.rotations import axis_angle_to_quat, quat_to_axis_angle
 
 _AXIS_SIGNS = (1.0, -1.0, -1.0)
+SYMMETRY_TOLERANCE_M = 0.005  # rest joints this far from their mirror: the averaging's premise fails
 
 
 def mirror_images(images: torch.Tensor) -> torch.Tensor:
@@ -90,10 +93,33 @@ def average_with_mirrored(direct: BodyParams, mirrored: BodyParams, width_m: flo
                       global_orient=pose[:, :3], body_pose=pose[:, 3:])
 
 
+def rest_asymmetry_m(layer) -> float:
+    """Largest distance (m) between a body layer's rest joints (zero pose and shape) and their mirror
+    image: about 0.00002 for the open default bodies."""
+    with torch.no_grad():
+        j = layer().joints.double()
+    return float((mirror_joints(j, 0.0) - j).norm(dim=-1).max())
+
+
+def check_symmetric(net) -> None:
+    """Warn (once per body layer) when a PressureNet's body is not mirror symmetric, so that mirror
+    averaging would average a body with a different one."""
+    for layer in net.body.layers:
+        if getattr(layer, "_mirror_checked", False):
+            continue
+        err = rest_asymmetry_m(layer)
+        layer._mirror_checked = True
+        if err > SYMMETRY_TOLERANCE_M:
+            warnings.warn(f"this body model is not mirror symmetric (its rest joints lie up to {1000 * err:.1f} mm "
+                          f"from their mirror image); mirror averaging assumes a symmetric body", stacklevel=3)
+
+
 def mirror_averaged(net, pressure: torch.Tensor, gender: torch.Tensor):
     """(out1, out2) like ``net(pressure, gender)`` for images (B, R, C) and genders (B,), each
     module's estimate averaged with its reading of the mirrored image (module docstring). out1 has
-    no maps (nothing reads Mod1's averaged maps); out2 has vertices and maps, as ``net`` gives."""
+    no maps (nothing reads Mod1's averaged maps); out2 has vertices and maps, as ``net`` gives.
+    Warns once if the body is not mirror symmetric (:func:`check_symmetric`)."""
+    check_symmetric(net)
     b = pressure.shape[0]
     both = torch.cat([gender, gender])
     x1 = net.inputs(torch.cat([pressure, mirror_images(pressure)]))
