@@ -1,8 +1,8 @@
 """Left-right mirroring of images, bodies and training samples; test-time mirror averaging (read an
 image and its mirror, and average the two bodies).
 
-A bed, a mat and the body models are symmetric across the bed's long axis (the default bodies to
-about 1.5 mm of joint position), so the mirror of a pressure image (its columns reversed) is the
+A bed, a mat and the body models are symmetric across the bed's long axis (the default bodies'
+rest joints to 0.02 mm, posed joints over random shapes and poses to 2 mm), so the mirror of a pressure image (its columns reversed) is the
 image of the mirrored body. Mirroring, in the bed frame (x across the bed on ``[0, width]``, y
 along it, z up):
 
@@ -28,6 +28,7 @@ and joints; the shape is unchanged): training's ``mirror_p`` (``train --mirror-p
 from __future__ import annotations
 
 import warnings
+from functools import lru_cache
 
 import torch
 
@@ -35,8 +36,14 @@ from pressurepose.body.joints import NUM_JOINTS, mirror_permutation
 from pressurepose.net.outputs import BodyParams
 from pressurepose.net.rotations import axis_angle_to_quat, quat_to_axis_angle
 
-_AXIS_SIGNS = (1.0, -1.0, -1.0)
 SYMMETRY_TOLERANCE_M = 0.005  # rest joints this far from their mirror: the averaging's premise fails
+
+
+@lru_cache(maxsize=8)
+def _permutation(device: torch.device) -> torch.Tensor:
+    """The left/right joint permutation on ``device``, made once (a copy to a GPU per call would
+    make the host wait)."""
+    return torch.tensor(mirror_permutation(), device=device)
 
 
 def mirror_images(images: torch.Tensor) -> torch.Tensor:
@@ -47,9 +54,8 @@ def mirror_images(images: torch.Tensor) -> torch.Tensor:
 def mirror_pose(pose: torch.Tensor) -> torch.Tensor:
     """SMPL poses (B, 72) of the mirrored bodies (root first)."""
     b = pose.shape[0]
-    signs = pose.new_tensor(_AXIS_SIGNS)
-    perm = torch.tensor(mirror_permutation(), device=pose.device)
-    return (pose.view(b, NUM_JOINTS, 3).index_select(1, perm) * signs).reshape(b, 3 * NUM_JOINTS)
+    turned = pose.reshape(b, NUM_JOINTS, 3).index_select(1, _permutation(pose.device))
+    return torch.cat([turned[..., :1], -turned[..., 1:]], -1).reshape(b, 3 * NUM_JOINTS)
 
 
 def mirror_points(points: torch.Tensor, width_m: float) -> torch.Tensor:
@@ -59,8 +65,7 @@ def mirror_points(points: torch.Tensor, width_m: float) -> torch.Tensor:
 
 def mirror_joints(joints: torch.Tensor, width_m: float) -> torch.Tensor:
     """Joint positions (B, 24, 3) of the mirrored bodies: points reflected and left/right swapped."""
-    perm = torch.tensor(mirror_permutation(), device=joints.device)
-    return mirror_points(joints, width_m).index_select(1, perm)
+    return mirror_points(joints, width_m).index_select(1, _permutation(joints.device))
 
 
 def midpoint_rotation(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -140,7 +145,7 @@ def mirror_some(flip: torch.Tensor, width_m: float, images: torch.Tensor, joints
                 *maps: torch.Tensor | None) -> tuple:
     """(images, joints, *maps) with the samples where ``flip`` (B,) bool is True mirrored: images
     (B, R, C) and maps (B, R, C) (None passes through) column-reversed, joints (B, 24, 3) by
-    :func:`mirror_joints`. Element-wise selection, so no sample count is read back from a GPU."""
+    :func:`mirror_joints` (shape labels need no change). Element-wise selection, so no sample count is read back from a GPU."""
     f2 = flip[:, None, None]
     out = [torch.where(f2, mirror_images(images), images),
            torch.where(f2, mirror_joints(joints, width_m).to(joints.dtype), joints)]
