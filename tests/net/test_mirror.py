@@ -101,9 +101,12 @@ def net():
     return PressureNet(cfg, gendered_body(body, body)).eval()
 
 
-def test_the_averaged_estimate_of_a_mirrored_image_is_the_mirrored_estimate(net):
+@pytest.mark.parametrize("use_pmr", [True, False])
+def test_the_averaged_estimate_of_a_mirrored_image_is_the_mirrored_estimate(net, use_pmr):
     """Holds for any network, trained or not (both branches are read either way): a check of every
-    sign and swap in the mirroring and the averaging."""
+    sign and swap in the mirroring and the averaging; with and without PMR (the paper's ablation)."""
+    if not use_pmr:
+        net = PressureNet(dataclasses.replace(net.config, use_pmr=False), net.body).eval()
     data = toy_dataset(4, grid=GRID)
     p, g = data["pressure"], data["gender"]
     with torch.no_grad():
