@@ -18,11 +18,9 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
-    p.add_argument("--mirror", action="store_true",
-                   help="also read each image's left-right mirror and average the two bodies (test-time mirror "
-                        "averaging; about twice the work)")
-    from pressurepose.net.commands import add_body_arguments
+    from pressurepose.net.commands import add_body_arguments, add_mirror_argument
 
+    add_mirror_argument(p)
     add_body_arguments(p)
 
 
@@ -92,9 +90,9 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
     p.add_argument("--device", default="cpu", help="cpu (default), cuda ...")
-    p.add_argument("--mirror", action="store_true",
-                   help="also read each image's left-right mirror and average the two bodies (test-time mirror "
-                        "averaging; about twice the work)")
+    from pressurepose.net.commands import add_mirror_argument
+
+    add_mirror_argument(p)
 
 
 def run_evaluate_real(args) -> int:

@@ -73,6 +73,8 @@ def run_train(args) -> int:
         raise BadInput(f"--limit is {args.limit}; expected a whole number >= 1 (or leave it out for all samples)")
     if not 0 <= args.cut_feet <= 1:
         raise BadInput(f"--cut-feet is {args.cut_feet}; expected a share from 0 to 1")
+    if not 0 <= args.mirror_p <= 1:
+        raise BadInput(f"--mirror-p is {args.mirror_p}; expected a chance from 0 to 1")
     data = load_dataset(args.data, limit=args.limit)
     config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
                          lr=args.lr, lr_mod2=args.lr_mod2, lr_schedule=args.lr_schedule, weight_decay=args.weight_decay, noise=not args.no_noise,
@@ -128,10 +130,15 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")
     p.add_argument("--mesh-format", choices=("ply", "obj"), default="ply", help="mesh file format (default ply)")
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
+    add_mirror_argument(p)
+    add_body_arguments(p)
+
+
+def add_mirror_argument(p: argparse.ArgumentParser) -> None:
+    """--mirror for verbs that run a trained model (pressurepose.net.mirror)."""
     p.add_argument("--mirror", action="store_true",
                    help="also read each image's left-right mirror and average the two bodies (test-time mirror "
                         "averaging; about twice the work)")
-    add_body_arguments(p)
 
 
 def add_body_arguments(p: argparse.ArgumentParser) -> None:

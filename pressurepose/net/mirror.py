@@ -128,7 +128,7 @@ def mirror_averaged(net, pressure: torch.Tensor, gender: torch.Tensor):
     b = pressure.shape[0]
     both = torch.cat([gender, gender])
     x1 = net.inputs(torch.cat([pressure, mirror_images(pressure)]))
-    out1 = net.run_mod1(x1, both, maps=net.config.use_pmr)
+    out1 = net.run_mod1(x1, both, maps=net.config.use_pmr, vertices=net.config.use_pmr)
     # each branch's Mod2 parameters only: the averaged body is posed (and mapped) once below
     out2 = net.run_mod2(x1, both, out1, maps=False, vertices=False)
     width = net.config.grid.size_m[0]

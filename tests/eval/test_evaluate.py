@@ -77,3 +77,8 @@ def test_evaluate_verb(setup, capsys):
     assert "| PressureNet (Mod1 + Mod2) |" in (root / "rep" / "report.md").read_text()
     assert "MPJPE" in capsys.readouterr().out
     assert main(["evaluate", "--model", str(root / "missing.pt"), "--data", str(root / "data")]) == 2
+    assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep_m"),
+                 "--mirror"]) == 0
+    rep_m = json.loads((root / "rep_m" / "report.json").read_text())
+    assert rep_m["mirror"] is True and rep["mirror"] is False and rep_m["summary"]["all"]["count"] == 4
+    assert rep_m["summary"]["all"]["mod2"] != rep["summary"]["all"]["mod2"]  # an untrained net is not symmetric

@@ -95,6 +95,9 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
     assert main(["evaluate-real", str(folder2), "--out", str(tmp_path / "out2")]) == 0
     m2 = json.loads((tmp_path / "out2" / "metrics.json").read_text())
     assert m2["n_images"] == 2 and m2["n_estimates"] == 4 and set(m2["by_body_model"]) == {"f", "m"}
+    assert main(["evaluate-real", str(folder2), "--out", str(tmp_path / "out3"), "--mirror"]) == 0
+    m3 = json.loads((tmp_path / "out3" / "metrics.json").read_text())
+    assert m3["mirror"] is True and m2["mirror"] is False and m3["n_estimates"] == 4
 
 
 def test_evaluate_real_bad_inputs(tmp_path, capsys):

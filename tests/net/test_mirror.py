@@ -180,3 +180,4 @@ def test_half_mirrored_training_runs_both_modules_deterministically(tmp_path):
     assert load_model(a.model_path)[1]["train"]["mirror_p"] == 0.5
     with pytest.raises(BadInput, match="mirror_p"):
         TrainConfig(mirror_p=1.5)
+    assert main(["train", "--data", str(tmp_path / "none"), "--out", str(tmp_path / "r"), "--mirror-p", "2"]) == 2
