@@ -30,7 +30,9 @@ class Simulated:
     (pressure, force, depth, contact maps); ``settle_steps``: steps the ragdoll took to rest;
     ``conditions``: the randomised bed it was pressed on (:class:`~pressurepose.sim.randomize.Conditions`),
     or None (the nominal bed); ``wedge``: the :class:`~pressurepose.sim.wedge.Wedge` that propped the
-    body, in the labels' frame (None without one)."""
+    body, in the labels' frame (None without one); ``wedge_force``: (rows, cols) N, the part of
+    ``image.force`` that is the wedge's load on the mat (None without one), so the body's own print
+    is ``read_sensor(image.force - wedge_force, bed)``."""
 
     betas: np.ndarray
     pose: np.ndarray
@@ -42,6 +44,7 @@ class Simulated:
     settle_steps: int
     conditions: object = None
     wedge: object = None
+    wedge_force: np.ndarray | None = None
 
 
 def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
@@ -134,7 +137,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
         verts, _ = body.forward(rest.betas, pose, transl)
         if wedge is not None:
             wedge, points = wedge.moved(motion), points @ motion[:3, :3].T + motion[:3, 3]
-    mass, com_xy = rest.mass_kg, None
+    mass, com_xy, wedge_force = rest.mass_kg, None, None
     t3 = time.process_time()
     try:
         if wedge is not None:
@@ -142,7 +145,9 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
                                          rest.wedge_force_z)
         image = press_at(body, rest.betas, pose, transl, mass, press_bed, verts=verts, com_xy=com_xy)
         if wedge is not None:
+            body_force = image.force
             image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
+            wedge_force = image.force - body_force
     except PressFailed:
         return "press_failed"
     finally:
@@ -151,4 +156,4 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     _, joints = body.forward(rest.betas, pose, transl)
     return Simulated(betas=np.asarray(rest.betas, dtype=np.float64), pose=pose, transl=transl, joints=joints[0],
                      mass=float(rest.mass_kg), height=float(body.height(rest.betas)[0]), image=image,
-                     settle_steps=int(rest.steps), conditions=conditions, wedge=wedge)
+                     settle_steps=int(rest.steps), conditions=conditions, wedge=wedge, wedge_force=wedge_force)

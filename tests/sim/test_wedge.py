@@ -15,6 +15,7 @@ from pressurepose.sim.bed import get_bed
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.posture import roll_angle, roll_of_rotation
 from pressurepose.sim.settle import settle
+from pressurepose.sim.sensor import read_sensor
 from pressurepose.sim.simulate import simulate_one
 from pressurepose.pose.partitions import WEDGE_TRUNK
 from pressurepose.sim.wedge import Wedge, relieved_body, wedge_behind, wedge_load
@@ -173,6 +174,21 @@ def test_a_propped_image_shows_the_wedge_beside_the_body(female):
     assert beside.sum() > 0.02 * s.mass * G  # the wedge carries part of the body
     assert np.all(img.pressure >= 0) and np.isfinite(img.pressure).all()
     assert s.wedge is not None and 0 < s.wedge.angle_rad < math.pi / 2
+    # the wedge's part of the mat's force: non-negative, most of what lies beside the body, and the
+    # body's own print is what is left
+    wf = s.wedge_force
+    assert wf.shape == img.force.shape and np.all(wf >= 0)
+    assert wf[~img.contact].sum() == pytest.approx(beside.sum(), rel=1e-9)
+    body_only = read_sensor(img.force - wf, BED)
+    assert np.all(body_only <= img.pressure + 1e-9) and body_only[~img.contact].sum() == 0
+
+
+def test_an_unpropped_body_has_no_wedge_force(female):
+    for seed in range(10):
+        s = simulate_one(female, BED, "general_supine", "f", np.random.default_rng(seed))
+        if not isinstance(s, str):
+            break
+    assert not isinstance(s, str) and s.wedge is None and s.wedge_force is None
 
 
 def test_a_wedge_round_trips_through_its_row_of_numbers():
