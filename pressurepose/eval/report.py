@@ -1,7 +1,9 @@
 """The accuracy table (paper Table 2): a trained PressureNet and the mean-pose baseline on a dataset,
 MPJPE and v2v in cm, overall, by partition and by gender; and, for comparison with real images
 (:mod:`pressurepose.eval.real`), Mod2's posture accuracy and the stature error of its body
-(estimated body's standing height minus the true body's, :mod:`pressurepose.eval.posture`)."""
+(estimated body's standing height minus the true body's, :mod:`pressurepose.eval.posture`), and its
+roll error: how far the body's turn about its long axis is misread, and whether turned bodies are
+read flatter than they lie (:func:`roll_errors`)."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
+from pressurepose.sim.posture import roll_angle
 
 GENDER_NAMES = ("f", "m")
 ROWS = (("mod2", "PressureNet (Mod1 + Mod2)"), ("mod1", "Mod1 alone"), ("baseline", "mean-pose baseline (BL)"))
@@ -60,7 +63,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
     base = {g: baseline_body(_layer_forward(net, g), net.config.grid) for g in (0, 1)}
     base_out = {g: _layer_forward(net, g)(*(a[None] for a in base[g])) for g in (0, 1)}
     errs = {f"{row}_{m}": np.zeros(n) for row, _ in ROWS for m in ("mpjpe", "v2v")}
-    errs.update(posture_correct=np.zeros(n, bool), stature_err=np.zeros(n))
+    errs.update(posture_correct=np.zeros(n, bool), stature_err=np.zeros(n), roll_err=np.zeros(n), turn_err=np.zeros(n))
     for s in tqdm(range(0, n, batch_size), desc="evaluate", unit="batch", disable=not progress):
         sl = slice(s, min(s + batch_size, n))
         gender = t["gender"][sl].to(device)
@@ -75,7 +78,9 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
             errs[f"{row}_v2v"][sl] = v2v(out.vertices.cpu().numpy(), tv)
         g = gender.cpu().numpy()
         names = [GENDER_NAMES[int(x)] for x in g]
-        errs["posture_correct"][sl] = posture_of(out2.params.pose.cpu().numpy()) == posture_of(t["pose"][sl].numpy())
+        est_pose, true_pose = out2.params.pose.cpu().numpy(), t["pose"][sl].numpy()
+        errs["posture_correct"][sl] = posture_of(est_pose) == posture_of(true_pose)
+        errs["roll_err"][sl], errs["turn_err"][sl] = roll_errors(est_pose, true_pose)
         h_est, _ = body_stature_mass(net, out2.params.betas.cpu().numpy(), names)
         h_true, _ = body_stature_mass(net, t["betas"][sl].numpy(), names)
         errs["stature_err"][sl] = h_est - h_true
@@ -87,9 +92,18 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
                                                  data.partition_names)}
 
 
+def roll_errors(est_pose, true_pose) -> tuple[np.ndarray, np.ndarray]:
+    """Degrees (B,) each, for SMPL poses (B, 72): the roll error (the estimated roll less the true
+    one, wrapped to (-180, 180]) and the turn error (|estimated roll| less |true roll|: negative
+    where a turned body is read flatter, toward supine, than it lies)."""
+    est, true = np.degrees(roll_angle(est_pose)), np.degrees(roll_angle(true_pose))
+    return (est - true + 180.0) % 360.0 - 180.0, np.abs(est) - np.abs(true)
+
+
 def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_names) -> dict:
     """{group: {row: {"mpjpe_cm", "v2v_cm"}, "count", "posture_accuracy", "stature_mae_cm",
-    "stature_bias_cm"}} for "all", each partition and each gender (posture and stature: Mod2)."""
+    "stature_bias_cm", "roll_mae_deg", "turn_bias_deg"}} for "all", each partition and each gender
+    (posture, stature and roll: Mod2). turn_bias_deg: the mean turn error (:func:`roll_errors`)."""
     groups = {"all": np.ones(len(gender), bool)}
     for p in np.unique(partition):
         groups[f"partition:{partition_names[int(p)]}"] = partition == p
@@ -103,6 +117,9 @@ def summarise(errs: dict, gender: np.ndarray, partition: np.ndarray, partition_n
             out[name].update(posture_accuracy=float(np.mean(errs["posture_correct"][sel])),
                              stature_mae_cm=100 * float(np.mean(np.abs(err))),
                              stature_bias_cm=100 * float(np.mean(err)))
+        if "roll_err" in errs:
+            out[name].update(roll_mae_deg=float(np.mean(np.abs(errs["roll_err"][sel]))),
+                             turn_bias_deg=float(np.mean(errs["turn_err"][sel])))
         for row, _ in ROWS:
             out[name][row] = {m + "_cm": 100 * float(np.mean(errs[f"{row}_{m}"][sel])) for m in ("mpjpe", "v2v")}
     return out
@@ -115,11 +132,13 @@ def format_table(summary: dict) -> str:
         r = summary["all"][row]
         lines.append(f"| {label} | {r['mpjpe_cm']:.2f} | {r['v2v_cm']:.2f} |")
     lines += ["", "| group | n | MPJPE (cm) | v2v (cm) | BL MPJPE (cm) | BL v2v (cm) | posture acc. | "
-              "stature MAE (cm) | stature bias (cm) |", "|---|---|---|---|---|---|---|---|---|"]
+              "stature MAE (cm) | stature bias (cm) | roll MAE (deg) | turn bias (deg) |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, s in summary.items():
         label = "all" if name == "all" else name.split(":", 1)[1]
         extra = (f" {s['posture_accuracy']:.2f} | {s['stature_mae_cm']:.1f} | {s['stature_bias_cm']:+.1f} |"
                  if "posture_accuracy" in s else " - | - | - |")
+        extra += (f" {s['roll_mae_deg']:.1f} | {s['turn_bias_deg']:+.1f} |" if "roll_mae_deg" in s else " - | - |")
         lines.append(f"| {label} | {s['count']} | {s['mod2']['mpjpe_cm']:.2f} | {s['mod2']['v2v_cm']:.2f} | "
                      f"{s['baseline']['mpjpe_cm']:.2f} | {s['baseline']['v2v_cm']:.2f} |{extra}")
     return "\n".join(lines)

@@ -7,7 +7,7 @@ import torch
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.eval.metrics import baseline_body, mpjpe
-from pressurepose.eval.report import evaluate, format_table
+from pressurepose.eval.report import evaluate, format_table, roll_errors
 from pressurepose.net.checkpoint import gendered_body, save_model
 from pressurepose.net.data import load_dataset
 from pressurepose.net.infer import estimate
@@ -63,10 +63,32 @@ def test_evaluate_matches_direct_computation(setup):
     s = result["summary"]
     assert s["all"]["posture_accuracy"] == pytest.approx(correct.mean())
     assert s["all"]["stature_bias_cm"] == pytest.approx(100 * result["errors"]["stature_err"].mean())
+    roll_err, turn_err = roll_errors(est.pose, data["pose"].numpy())
+    np.testing.assert_allclose(result["errors"]["roll_err"], roll_err, atol=1e-3)
+    assert s["all"]["roll_mae_deg"] == pytest.approx(np.abs(roll_err).mean(), abs=1e-3)
+    assert s["all"]["turn_bias_deg"] == pytest.approx(turn_err.mean(), abs=1e-3)
     assert s["all"]["count"] == 4 and s["gender:f"]["count"] + s["gender:m"]["count"] == 4
     assert s["partition:general_supine"]["count"] == 2
     table = format_table(s)
     assert "mean-pose baseline" in table and "supine_straight_limbs" in table and "posture acc." in table
+    assert "turn bias (deg)" in table
+
+
+def _rolled(deg: float) -> np.ndarray:
+    """(72,) a zero pose with the root rolled by ``deg`` about the body's long axis."""
+    from pressurepose.pose.root import root_axis_angle, world_rotation
+
+    pose = np.zeros(72)
+    pose[:3] = root_axis_angle(world_rotation(np.radians(deg), 0.0))[0]
+    return pose
+
+
+def test_roll_errors_wrap_and_tell_a_flatter_reading():
+    est = np.stack([_rolled(50.0), _rolled(-170.0), _rolled(-10.0)])
+    true = np.stack([_rolled(70.0), _rolled(175.0), _rolled(0.0)])
+    roll_err, turn_err = roll_errors(est, true)
+    np.testing.assert_allclose(roll_err, [-20.0, 15.0, -10.0], atol=1e-6)  # -170 is 15 past 175, not -345
+    np.testing.assert_allclose(turn_err, [-20.0, -5.0, 10.0], atol=1e-6)   # 50 for 70: read flatter
 
 
 def test_evaluate_verb(setup, capsys):
