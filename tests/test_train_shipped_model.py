@@ -127,12 +127,12 @@ def test_train_on_a_pack_made_elsewhere_and_ship_to_a_folder(tmp_path):
     assert main(["pack", str(tmp_path / "data"), "--out", str(tmp_path / "train.npz")]) == 0
     cmd = [sys.executable, str(TOOL), "--work", str(tmp_path / "w"), "--train-data", str(tmp_path / "train.npz"),
            "--epochs-mod1", "1", "--epochs-mod2", "1", "--batch-size", "2", "--no-cpu-amp", "--seed", "2",
-           "--real", str(tmp_path / "no_real"), "--ship-to", str(tmp_path / "ship")]
+           "--turn-loss", "0.5", "--real", str(tmp_path / "no_real"), "--ship-to", str(tmp_path / "ship")]
     done = subprocess.run(cmd, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert not (tmp_path / "w" / "data").exists() and not (tmp_path / "w" / "eval").exists()
     meta = read_model_files(tmp_path / "ship" / "pressurenet.json")[0]
-    assert meta["train"]["seed"] == 2 and meta["train"]["epochs_mod1"] == 1
+    assert meta["train"]["seed"] == 2 and meta["train"]["epochs_mod1"] == 1 and meta["train"]["turn_loss"] == 0.5
     assert sorted(p.name for p in (tmp_path / "ship").iterdir()) == [
         "pressurenet.json", "pressurenet.mod1.safetensors", "pressurenet.mod2.safetensors"]
     bad = subprocess.run([*cmd[:2], "--train-data", "x.npz", "--data-only"], capture_output=True, text=True)

@@ -156,6 +156,8 @@ def main() -> int:
                    help="share of training images cut short at the foot end (train --cut-feet) [0]")
     p.add_argument("--mirror-p", type=float, default=0.0,
                    help="chance that a training sample is mirrored left to right (train --mirror-p) [0]")
+    p.add_argument("--turn-loss", type=float, default=0.0,
+                   help="weight of the loss on the body's turn (train --turn-loss) [0]")
     p.add_argument("--gender-input", action=argparse.BooleanOptionalAction, default=True,
                    help="also feed the gender flag to the CNN (not in the paper; --no-gender-input: the paper's) [on]")
     p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
@@ -229,6 +231,7 @@ def main() -> int:
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
         *(["--cut-feet", str(args.cut_feet)] if args.cut_feet else []),
         *(["--mirror-p", str(args.mirror_p)] if args.mirror_p else []),
+        *(["--turn-loss", str(args.turn_loss)] if args.turn_loss else []),
         *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", str(args.seed))
     if not args.train_data or (data / "test").is_dir():
         cli("evaluate", "--model", str(run), "--data", str(data / "test"), "--out", str(work / "eval"))

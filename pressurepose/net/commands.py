@@ -53,6 +53,9 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mirror-p", type=float, default=d.mirror_p, metavar="P",
                    help="chance that a training sample is mirrored left to right in a step (image, joints and "
                         "maps; not in the paper) [0]")
+    p.add_argument("--turn-loss", type=float, default=d.turn_loss, metavar="W",
+                   help="weight of a loss on the body's turn about its long axis (the hips' and shoulders' "
+                        "left-right axes, apart from the joint distances; not in the paper) [0]")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
@@ -75,6 +78,8 @@ def run_train(args) -> int:
         raise BadInput(f"--cut-feet is {args.cut_feet}; expected a share from 0 to 1")
     if not 0 <= args.mirror_p <= 1:
         raise BadInput(f"--mirror-p is {args.mirror_p}; expected a chance from 0 to 1")
+    if not 0 <= args.turn_loss < float("inf"):
+        raise BadInput(f"--turn-loss is {args.turn_loss}; expected a weight >= 0")
     data = load_dataset(args.data, limit=args.limit)
     config = TrainConfig(epochs_mod1=args.epochs_mod1, epochs_mod2=args.epochs_mod2, batch_size=args.batch_size,
                          lr=args.lr, lr_mod2=args.lr_mod2, lr_schedule=args.lr_schedule, weight_decay=args.weight_decay, noise=not args.no_noise,
@@ -82,7 +87,8 @@ def run_train(args) -> int:
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
                          cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
-                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet), mirror_p=args.mirror_p)
+                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet), mirror_p=args.mirror_p,
+                         turn_loss=args.turn_loss)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
     tensors = {k: v for k, v in data.tensors.items() if k != "partition"}

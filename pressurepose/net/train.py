@@ -77,7 +77,9 @@ class TrainConfig:
     sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
     as contact); the model keeps it, so inference applies the same floor. mirror_p: the chance
     that a training sample is mirrored left to right in a step (its image, joints and ground-truth
-    maps; :func:`pressurepose.net.mirror.mirror_some`); 0, the paper's, never does.
+    maps; :func:`pressurepose.net.mirror.mirror_some`); 0, the paper's, never does. turn_loss:
+    weight of the turn term (:func:`pressurepose.net.losses.turn_error`) in both modules' losses;
+    0, the paper's, leaves it out.
     """
 
     epochs_mod1: int = 100
@@ -106,6 +108,7 @@ class TrainConfig:
     cpu_amp: bool = False
     contact_floor_mmhg: float = 0.0
     mirror_p: float = 0.0
+    turn_loss: float = 0.0
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
@@ -127,6 +130,8 @@ class TrainConfig:
             raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
         if not 0 <= self.mirror_p <= 1:
             raise BadInput(f"mirror_p = {self.mirror_p}; expected a chance from 0 to 1")
+        if not 0 <= self.turn_loss < float("inf"):
+            raise BadInput(f"turn_loss = {self.turn_loss}; expected a weight >= 0")
         if self.cnn not in CNN_VARIANTS:
             raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
 
@@ -185,6 +190,7 @@ def _with_defaults(stored: dict | None) -> dict | None:
         stored["train"].setdefault("cnn", "paper")
         stored["train"].setdefault("contact_floor_mmhg", 0.0)
         stored["train"].setdefault("mirror_p", 0.0)
+        stored["train"].setdefault("turn_loss", 0.0)
         if isinstance(stored["train"].get("noise_config"), dict):
             stored["train"]["noise_config"].setdefault("cut_feet_p", 0.0)
             stored["train"]["noise_config"].setdefault("cut_feet_rows", 8)
@@ -472,9 +478,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     with torch.autocast(device.type, dtype=amp_dtype, enabled=use_amp):
                         out = _forward(net, stage, pressure, gender, noise_gen, config, maps=l2)
                         if l2:
-                            loss, parts = loss_l2(out, joints, betas, q_b, c_b, scales)
+                            loss, parts = loss_l2(out, joints, betas, q_b, c_b, scales, config.turn_loss)
                         else:
-                            loss, parts = loss_l1(out, joints, betas, scales)
+                            loss, parts = loss_l1(out, joints, betas, scales, config.turn_loss)
                     opt.zero_grad(set_to_none=True)
                     scaler.scale(loss).backward()
                     scaler.step(opt)
@@ -514,9 +520,10 @@ def _validate(net, stage, data, val_idx, q_true, c_true, scales, config, device)
                        config, maps=l2)
         joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
         if l2:
-            loss, _ = loss_l2(out, joints, betas, q_true[idx].to(device), c_true[idx].to(device), scales)
+            loss, _ = loss_l2(out, joints, betas, q_true[idx].to(device), c_true[idx].to(device), scales,
+                              config.turn_loss)
         else:
-            loss, _ = loss_l1(out, joints, betas, scales)
+            loss, _ = loss_l1(out, joints, betas, scales, config.turn_loss)
         tot_loss += float(loss) * len(idx)
         tot_err += float(joint_error(out.joints, joints).sum())
     return {"val_loss": tot_loss / len(val_idx), "val_mpjpe_cm": 100 * tot_err / len(val_idx)}

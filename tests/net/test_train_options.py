@@ -87,6 +87,7 @@ def test_runs_saved_before_the_options_existed_still_resume(tmp_path):
     state = json.loads((tmp_path / "state.json").read_text())
     del state["identity"]["train"]["cnn"]
     del state["identity"]["train"]["mirror_p"]
+    del state["identity"]["train"]["turn_loss"]
     del state["identity"]["net"]["cnn_channels"]
     del state["identity"]["train"]["noise_config"]["cut_feet_p"]
     del state["identity"]["train"]["noise_config"]["cut_feet_rows"]
