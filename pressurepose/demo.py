@@ -41,6 +41,8 @@ def run_demo(args) -> int:
 
     out = check_output_path(args.out, "--out", directory=True)
     gender = canonical_gender(args.gender)[0]
+    if gender not in ("f", "m"):  # the network's body models are female and male
+        raise BadInput(f"--gender {args.gender!r}: the demo's network estimates female or male bodies; expected f or m")
     partition = get_partition(args.partition).name
     if args.model:
         resolve_model(args.model)  # a bad model fails now, not after the simulation

@@ -245,6 +245,9 @@ def run_convert(args: argparse.Namespace) -> int:
     from pressurepose.files import check_output_path
 
     src, out = Path(args.src), Path(args.out)
+    if not src.exists():
+        raise BadInput(f"{src} does not exist; expected a PressurePose .p file, a folder of them, a participant "
+                       f"folder or (with --to-pressurepose) a dataset")
     if args.to_pressurepose:
         check_output_path(out, "--out", suffixes=(".p",))
         samples = list(DatasetReader(src))

@@ -80,6 +80,7 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
     pmax = 0.0
     ratios = []
     step = max(1, len(reader.shards) // max(1, examples))
+    per_shard = -(-examples // max(1, len(reader.shards)))  # a dataset of few shards shows several of each
     for k, ref in enumerate(reader.shards):
         a = read_shard_arrays(ref.path, ["pressure", "force", "contact", "mass", "gender", "partition", "index"])
         p = a["pressure"].astype(np.float64)
@@ -93,7 +94,9 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
         hist += np.histogram(np.clip(nz, 0, edges[-1]), edges)[0]
         ratios.append(a["force"].sum((1, 2)) / (a["mass"] * GRAVITY))
         if k % step == 0 and len(s.examples) < examples:
-            s.examples.append((f"{a['partition'][0]}\n{a['gender'][0]} #{a['index'][0]}", a["pressure"][0]))
+            for i in np.unique(np.linspace(0, len(p) - 1, min(per_shard, len(p))).round().astype(int)):
+                if len(s.examples) < examples:
+                    s.examples.append((f"{a['partition'][i]}\n{a['gender'][i]} #{a['index'][i]}", a["pressure"][i]))
     if n_taxels:
         s.pressure_mean = total / n_taxels
         s.pressure_mean_loaded = loaded / max(n_loaded, 1)

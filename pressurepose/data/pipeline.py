@@ -336,12 +336,13 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     get_mat(config.mat)  # unknown mats fail here, before anything is written
     resolve_producer(config.producer)
     check_executor(workers, ray_address, retries)
-    manifest = open_output(out, config)
-    todo = check_shards(out, manifest, repair)
-    if only_shards is not None:
+    if only_shards is not None:  # before anything is written
         bad = [k for k in only_shards if not 0 <= k < config.num_shards]
         if bad:
             raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")
+    manifest = open_output(out, config)
+    todo = check_shards(out, manifest, repair)
+    if only_shards is not None:
         todo = [k for k in todo if k in set(only_shards)]
     skipped = config.num_shards - len(todo)
     unit_cpu = []

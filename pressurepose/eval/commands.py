@@ -106,8 +106,10 @@ def run_evaluate_real(args) -> int:
                                         format_subject_table, gallery_figure)
     from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic, write_text_atomic
     from pressurepose.net.infer import resolve_model
+    from pressurepose.net.train import resolve_device
 
     out = check_output_path(args.out, "--out", directory=True)
+    device = resolve_device(args.device)
     if args.force_gender and args.gender == "both":
         raise BadInput("--force-gender needs --gender f or m")
     config = RealEvalConfig(gender=args.gender, force_gender=args.force_gender, contact_mmhg=args.contact_mmhg,
@@ -117,7 +119,7 @@ def run_evaluate_real(args) -> int:
         if not args.gain > 0:
             raise BadInput(f"--gain is {args.gain}; expected a positive number of mmHg per raw unit")
         real = dataclasses.replace(real, gain=float(args.gain))
-    net = resolve_model(args.model).to(args.device)
+    net = resolve_model(args.model).to(device)
     result = evaluate_real(real, net, config)
     s = result["summary"]
     metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
@@ -187,9 +189,14 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 def run_realism(args) -> int:
     from pressurepose.eval.realism_report import (draw_report, headline, load_real, load_synthetic,
                                                   realism_report)
+    from pressurepose.errors import BadInput
     from pressurepose.files import check_output_path, write_json_atomic
 
     out = check_output_path(args.out, "--out", directory=True)
+    if args.examples < 0:
+        raise BadInput(f"--examples is {args.examples}; expected 0 or more")
+    if args.keep_wedge and args.only_wedge:
+        raise BadInput("--keep-wedge and --only-wedge go one at a time: --only-wedge already keeps the wedge images")
     sim = load_synthetic(args.synthetic, args.mat)
     wedge = args.keep_wedge or args.only_wedge
     real = load_real(args.real, sim.mat, exclude_detail=() if wedge else ("wedge",),

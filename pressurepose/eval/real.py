@@ -49,8 +49,10 @@ class RealEvalConfig:
     def __post_init__(self):
         if self.gender not in GENDER_CHOICES:
             raise BadInput(f"gender {self.gender!r} is not known; expected one of {', '.join(GENDER_CHOICES)}")
-        if (self.contact_mmhg is not None and not self.contact_mmhg >= 0) or not 0 <= self.weak_fraction < 1:
-            raise BadInput("contact_mmhg must be >= 0 and weak_fraction in [0, 1)")
+        if self.contact_mmhg is not None and not 0 <= self.contact_mmhg < float("inf"):
+            raise BadInput(f"contact_mmhg (--contact-mmhg) is {self.contact_mmhg}; expected a pressure >= 0 (mmHg)")
+        if not 0 <= self.weak_fraction < 1:
+            raise BadInput(f"weak_fraction is {self.weak_fraction}; expected a share in [0, 1)")
 
 
 def weak_images(real: RealImages, fraction: float) -> np.ndarray:

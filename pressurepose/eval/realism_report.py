@@ -103,6 +103,9 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
         arr = reader.load_arrays(("pressure", "force", "pose", "mass", "height"), image_dtype=np.float32,
                                  label_dtype=np.float64)
         mat = get_mat(reader.datasets[0].config.mat)
+        if mat_name is not None and get_mat(mat_name).name != mat.name:
+            raise BadInput(f"{p} was made on mat {mat.name!r}, not {mat_name!r}; a dataset knows its mat, so leave "
+                           f"--mat out")
     else:
         raise BadInput(f"synthetic data {str(p)!r} does not exist; expected a dataset directory or a simulate .npz")
     group = R.posture_group(posture_of(np.asarray(arr["pose"], dtype=np.float64)))

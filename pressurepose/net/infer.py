@@ -60,7 +60,8 @@ class Estimate:
 
     def save(self, out_dir: str | Path, mesh_format: str = "ply", max_figures: int = 16) -> list[Path]:
         """Write estimate.json, estimate.npz, one mesh per image (``mesh_000.ply`` or ``.obj``) and a
-        PNG for each of the first ``max_figures`` images. Returns the paths written."""
+        PNG for each of the first ``max_figures`` images, removing the numbered meshes and PNGs an
+        earlier estimate left in ``out_dir``. Returns the paths written."""
         import trimesh
 
         if mesh_format not in ("ply", "obj"):
@@ -86,6 +87,12 @@ class Estimate:
 
             plt.close(fig)
             paths.append(p)
+        # meshes and pictures of an earlier, longer estimate in the same folder would pass for this one's
+        written = set(paths)
+        for stale in [*out.glob("mesh_[0-9][0-9][0-9].ply"), *out.glob("mesh_[0-9][0-9][0-9].obj"),
+                      *out.glob("estimate_[0-9][0-9][0-9].png")]:
+            if stale not in written:
+                stale.unlink()
         return paths
 
 
@@ -134,7 +141,13 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         if suffix == ".npy":
             arr = read_npy(path, "pressure")
         elif suffix == ".csv":
-            arr = np.loadtxt(path, delimiter=",", ndmin=2)
+            import warnings
+
+            with warnings.catch_warnings():  # an empty file: our error below, not numpy's warning
+                warnings.simplefilter("ignore", UserWarning)
+                arr = np.loadtxt(path, delimiter=",", ndmin=2)
+            if arr.size == 0:
+                raise BadInput(f"pressure file {str(path)!r} holds no numbers; expected R rows of C comma-separated values")
         elif suffix in (".h5", ".hdf5"):
             import h5py
 

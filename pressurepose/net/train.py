@@ -114,10 +114,15 @@ class TrainConfig:
         for name in ("epochs_mod1", "epochs_mod2"):
             if getattr(self, name) < 0:
                 raise BadInput(f"{name} = {getattr(self, name)}; expected >= 0")
-        if self.batch_size < 1 or self.upsample < 1 or self.save_every < 1:
-            raise BadInput("batch_size, upsample and save_every must be >= 1")
-        if not self.lr > 0 or self.weight_decay < 0 or (self.lr_mod2 is not None and not self.lr_mod2 > 0):
-            raise BadInput(f"lr = {self.lr} must be > 0 and weight_decay = {self.weight_decay} >= 0")
+        for name in ("batch_size", "upsample", "save_every"):
+            if getattr(self, name) < 1:
+                raise BadInput(f"{name} = {getattr(self, name)}; expected a whole number >= 1")
+        for name in ("lr", "lr_mod2"):
+            v = getattr(self, name)
+            if v is not None and not 0 < v < float("inf"):
+                raise BadInput(f"{name} = {v}; expected a learning rate > 0")
+        if not 0 <= self.weight_decay < float("inf"):
+            raise BadInput(f"weight_decay = {self.weight_decay}; expected a number >= 0")
         if self.lr_schedule not in LR_SCHEDULES:
             raise BadInput(f"lr_schedule = {self.lr_schedule!r}; expected one of {', '.join(LR_SCHEDULES)}")
         if self.loss_sigmas not in ("paper", "data"):
@@ -381,12 +386,15 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     if bodies is None:
         bodies = (BodyModel("female"), BodyModel("male"))
     data = as_training_data(data, grid)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     device = resolve_device(config.device)
     n = data["pressure"].shape[0]
-    perm = torch.randperm(n, generator=torch.Generator().manual_seed(config.seed))
     n_val = int(round(config.val_fraction * n))
+    if n_val >= n:
+        raise BadInput(f"val_fraction {config.val_fraction} of {n} sample(s) holds out {n_val}, which leaves none to "
+                       f"train on; use a smaller fraction or more samples")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    perm = torch.randperm(n, generator=torch.Generator().manual_seed(config.seed))
     val_idx, train_idx = perm[:n_val].sort().values, perm[n_val:].sort().values
 
     net_config = net_config_for(config, grid, data["transl"][train_idx])
@@ -409,6 +417,12 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     if record is not None and _with_defaults(record.get("identity")) != identity:
         raise BadInput(f"{out_dir} holds a training run with a different config, body model or data; "
                        f"use another output folder (nothing was overwritten)")
+    if record is not None and record.get("stage") == 2:
+        ran = sum(1 for r in record.get("history", []) if isinstance(r, dict) and r.get("stage") == 1)
+        if config.epochs_mod1 != ran:
+            raise BadInput(f"{out_dir}: Mod1 finished after {ran} epoch(s) and Mod2 has trained on it, so Mod1 cannot "
+                           f"be changed to {config.epochs_mod1} epochs; resume with --epochs-mod1 {ran} (more "
+                           f"--epochs-mod2 may be added) or start a new run in another folder")
 
     q_true = c_true = None
     if config.use_pmr:

@@ -23,6 +23,11 @@ def test_generate_then_info(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "general_supine" in text and "yes" in text and "rejected" in text and "pressure (mmHg)" in text
     assert (tmp_path / "i.png").stat().st_size > 10_000
+    from pressurepose.data.info import summarize
+
+    # 3 shards: 6 examples come 2 from each, 2 examples from the first two shards, 20 are all 10 samples
+    for asked, got in ((6, 6), (2, 2), (20, 10), (0, 0)):
+        assert len(summarize(out, examples=asked).examples) == got
 
 
 def test_bad_input_is_reported_not_raised(tmp_path, capsys):

@@ -87,6 +87,12 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert main(["infer", str(tmp_path / "d.h5"), "--key", "images", "--model", str(model_path),
                  "--out", str(tmp_path / "c")]) == 0  # genders from the file
     assert [r["gender"] for r in json.loads((tmp_path / "c" / "estimate.json").read_text())["estimates"]] == ["m", "f"]
+    # one image into the folder of two: the second image's mesh and picture do not stay behind
+    (tmp_path / "a" / "notes.txt").write_text("mine")
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
+                 "--out", str(tmp_path / "a")]) == 0
+    left = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert left == ["estimate.json", "estimate.npz", "estimate_000.png", "mesh_000.ply", "notes.txt"]
     assert main(["infer", str(tmp_path / "one.csv"), "--model", str(model_path), "--out", str(tmp_path / "d")]) == 2
     # bad input: a clear error and exit status 2
     np.save(tmp_path / "nan.npy", np.full((16, 16), np.nan))

@@ -100,6 +100,19 @@ def test_runs_saved_before_the_options_existed_still_resume(tmp_path):
               bodies=(body, body), grid=GRID)
 
 
+def test_a_finished_mod1_cannot_be_extended_once_mod2_has_trained(tmp_path):
+    data = toy_dataset(4, seed=9, grid=GRID)
+    body = toy_body()
+    train(data, tmp_path, TrainConfig(epochs_mod1=1, epochs_mod2=1, batch_size=4, lr=1e-4, cnn="quarter"),
+          bodies=(body, body), grid=GRID)
+    with pytest.raises(BadInput, match="Mod1 finished after 1 epoch"):
+        train(data, tmp_path, TrainConfig(epochs_mod1=3, epochs_mod2=1, batch_size=4, lr=1e-4, cnn="quarter"),
+              bodies=(body, body), grid=GRID)
+    more = train(data, tmp_path, TrainConfig(epochs_mod1=1, epochs_mod2=2, batch_size=4, lr=1e-4, cnn="quarter"),
+                 bodies=(body, body), grid=GRID)  # more Mod2 epochs are fine
+    assert [(r["stage"], r["epoch"]) for r in more.history] == [(1, 0), (2, 0), (2, 1)]
+
+
 def test_options_train_deterministically(tmp_path):
     data = toy_dataset(4, seed=8, grid=GRID)
     body = toy_body()
