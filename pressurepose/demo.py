@@ -44,8 +44,11 @@ def run_demo(args) -> int:
     if gender not in ("f", "m"):  # the network's body models are female and male
         raise BadInput(f"--gender {args.gender!r}: the demo's network estimates female or male bodies; expected f or m")
     partition = get_partition(args.partition).name
-    if args.model:
-        resolve_model(args.model)  # a bad model fails now, not after the simulation
+    if args.model:  # a bad model, or one for another mat, fails now, not after the simulation
+        grid, mat = resolve_model(args.model).config.grid, get_bed().mat
+        if tuple(grid.shape) != tuple(mat.shape):
+            raise BadInput(f"--model {args.model} reads {grid.shape[0]} x {grid.shape[1]} mats; the demo's "
+                           f"{mat.name} is {mat.rows} x {mat.cols}")
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)
     print(f"pressurepose demo: one {partition} {'female' if gender == 'f' else 'male'} body, seed {args.seed}")

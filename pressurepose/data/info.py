@@ -10,6 +10,7 @@ import numpy as np
 
 from pressurepose.data.dataset import DatasetReader
 from pressurepose.data.store import read_shard_arrays
+from pressurepose.errors import BadInput
 from pressurepose.files import save_figure_atomic
 from pressurepose.sim.bed import get_mat
 
@@ -49,6 +50,10 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
     """Read every shard once (streaming) and gather the statistics of :class:`Summary`."""
     reader = DatasetReader(root, verify=verify, allow_incomplete=True)
     first = reader.datasets[0].config
+    mats = sorted({d.config.mat for d in reader.datasets})
+    if len(mats) > 1:  # pressures of different mats do not pool into one histogram
+        raise BadInput(f"{root} holds datasets on {len(mats)} mats ({', '.join(mats)}); summarise each mat's "
+                       f"datasets on their own")
     mat = get_mat(first.mat)
     s = Summary(Path(root), mat.name, mat.shape, len(reader), len(reader.datasets))
     for part in reader.datasets:
@@ -138,7 +143,7 @@ def format_summary(s: Summary) -> str:
     lines.append("")
     rej = ", ".join(f"{c} {n} ({100.0 * n / s.attempts:.1f}%)" for c, n in
                     sorted(s.rejections.items(), key=lambda kv: -kv[1])) if s.attempts else "none"
-    lines.append(f"attempts {s.attempts}, rejected {100.0 * s.rejection_rate:.1f}%: {rej}")
+    lines.append(f"attempts {s.attempts}, rejected {100.0 * s.rejection_rate:.1f}%" + (f": {rej}" if s.rejections else ""))
     lines.append(f"pressure (mmHg): mean {s.pressure_mean:.2f} over all taxels, {s.pressure_mean_loaded:.2f} "
                  f"over loaded taxels, 99th percentile {s.pressure_p99:.1f}, max {s.pressure_max:.1f}")
     lines.append(f"contact: {100.0 * s.contact_fraction:.1f}% of taxels; force on the mat / body weight: "

@@ -10,8 +10,9 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
                      "vertex-to-vertex error in cm, overall, by partition and by gender, beside the "
                      "paper's mean-pose baseline (mean shape, supine, centred, straight limbs); and the "
                      "posture accuracy and stature error that evaluate-real reports on real images.")
-    p.add_argument("--model", required=True,
-                   help="trained model (.json with its .safetensors files, .pt, or a run folder)")
+    p.add_argument("--model", default=None,
+                   help="trained model (.json with its .safetensors files, .pt, or a run folder; default: the "
+                        "shipped PressureNet)")
     p.add_argument("--data", required=True,
                    help="dataset directory (or a folder of datasets) from `generate`, or a training pack (.npz) from `pack`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
@@ -50,9 +51,9 @@ def run_evaluate(args) -> int:
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model}\ndata: {args.data} "
+        write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model or 'shipped'}\ndata: {args.data} "
                                              f"({len(data)} samples)\n\n{table}\n")
-        write_json_atomic(out / "report.json", {"model": str(args.model), "data": str(args.data),
+        write_json_atomic(out / "report.json", {"model": str(args.model or "shipped"), "data": str(args.data),
                                                 "mirror": bool(args.mirror), "summary": result["summary"]})
         print(f"\nreport written to {out}")
     return 0

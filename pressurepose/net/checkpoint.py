@@ -148,7 +148,11 @@ def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
         if not meta_path.is_file():
             if not path.is_file():
                 raise BadInput(f"model file {str(path)!r} does not exist")
-            raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it")
+            hint = ""
+            for module in (".mod1", ".mod2"):  # one module's weights of a model stored per module
+                if path.stem.endswith(module) and path.with_name(path.stem[:-len(module)] + ".json").is_file():
+                    hint = f"; it holds one module's weights: pass {path.with_name(path.stem[:-len(module)] + '.json')}"
+            raise BadInput(f"model file {str(path)!r} has no {meta_path.name} beside it{hint}")
         meta, weights = _read_safetensors(path, meta_path)
     elif path.suffix == ".pt":
         if not path.is_file():

@@ -47,7 +47,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
     p.add_argument("--max-evals", type=int, default=None,
-                   help="most loss evaluations [5000; 400 for --targets real]")
+                   help="loss evaluations to stop at (CMA-ES stops at the end of the generation that reaches "
+                        "it, so up to one population more) [5000; 400 for --targets real]")
     p.add_argument("--out", default="bed_params.json", help="output JSON [bed_params.json]")
     p.add_argument("--plot", default=None, help="also draw measured vs simulated images (PNG)")
 

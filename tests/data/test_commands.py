@@ -80,3 +80,13 @@ def test_recipe_entries_that_would_share_bodies_are_refused(tmp_path):
         {"name": "b", "partition": "general", "gender": "f", "count": 4, "seed": 1}]}))
     with pytest.raises(BadInput, match="same partition, gender, limbs_on_bed and seed"):
         load_recipe(recipe)
+
+
+def test_info_refuses_to_pool_datasets_of_different_mats(tmp_path, capsys):
+    for name, mat in (("a", "boditrak_bt3510"), ("b", "tip")):
+        assert main(["generate", "--partition", "general", "--gender", "f", "--count", "2", "--producer", "synthetic",
+                     "--mat", mat, "--out", str(tmp_path / "mix" / name), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "mix")]) == 2
+    assert "2 mats (boditrak_bt3510, tip)" in capsys.readouterr().err
+    assert main(["info", str(tmp_path / "mix" / "b")]) == 0

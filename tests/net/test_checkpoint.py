@@ -116,3 +116,14 @@ def test_bad_model_files(tmp_path):
     (tmp_path / "x.npy").write_bytes(b"")
     with pytest.raises(BadInput, match="expected"):
         load_model(tmp_path / "x.npy")
+
+
+def test_one_modules_weights_point_to_the_models_json():
+    from pathlib import Path
+
+    from pressurepose.net.checkpoint import read_model_files
+    from pressurepose.net.infer import DEFAULT_MODEL
+
+    shipped = Path(DEFAULT_MODEL)
+    with pytest.raises(BadInput, match=f"pass .*{shipped.name}"):
+        read_model_files(shipped.with_name(shipped.stem + ".mod1.safetensors"))
