@@ -28,7 +28,8 @@ from benchmarks.results import write_section
 
 WEDGE = ("left 30 deg (wedge)", "left 60 deg (wedge)", "right 30 deg (wedge)", "right 60 deg (wedge)")
 HEADER = ("| model | sim MPJPE (cm) | worst partition / BL | sim posture acc. | `general_lateral` MPJPE / posture | "
-          "`propped_lateral` MPJPE / posture | real posture acc. | real wedge postures right | "
+          "`propped_lateral` MPJPE / posture | turn bias, side-lying / propped (deg) | real posture acc. | "
+          "real wedge postures right | "
           "real flat side lying, left / right | real stature MAE (bias), cm | real stature r |")
 
 
@@ -61,6 +62,8 @@ def row(name: str, test: dict, extra: dict | None, real: dict | None) -> str:
     for part in ("general_lateral", "propped_lateral"):
         s = (extra or {}).get(f"partition:{part}")
         cells.append(f"{s['mod2']['mpjpe_cm']:.2f} / {s['posture_accuracy']:.2f}" if s else "-")
+    turn = [(extra or {}).get(f"partition:{part}", {}).get("turn_bias_deg") for part in ("general_lateral", "propped_lateral")]
+    cells.append(" / ".join("-" if t is None else f"{t:+.1f}" for t in turn) if any(t is not None for t in turn) else "-")
     if real is None:
         return "| " + " | ".join(cells + ["-"] * 5) + " |"
     d = real["per_detail"]

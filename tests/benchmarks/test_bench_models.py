@@ -32,7 +32,7 @@ def test_rows_come_from_the_reports_and_are_reused(tmp_path, capsys, monkeypatch
     for line, name in zip(lines, "ab"):
         s = json.loads((out / name / "test" / "report.json").read_text())["summary"]
         cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[1] == f"{s['all']['mod2']['mpjpe_cm']:.2f}" and cells[4:] == ["-"] * 7
+        assert cells[1] == f"{s['all']['mod2']['mpjpe_cm']:.2f}" and cells[4:] == ["-"] * 8
         assert len(cells) == bench.HEADER.count(" | ") + 1
     # a second run reads the kept reports: evaluate is not called again
     monkeypatch.setattr(bench, "_cli", lambda *a: pytest.fail(f"evaluated again: {a}"))
@@ -56,7 +56,13 @@ def test_real_columns_count_the_wedge_postures():
     real = {"per_detail": detail, "posture_accuracy": 0.8, "stature_mae_m": 0.077, "stature_bias_m": -0.03,
             "stature_r": -0.2}
     cells = [c.strip() for c in bench.row("m", test, None, real).strip("|").split("|")]
-    assert cells == ["m", "10.00", "0.40", "0.90", "-", "-", "0.80", "52 / 104", "0.92 / 1.00", "7.7 (-3.0)", "-0.20"]
+    assert cells == ["m", "10.00", "0.40", "0.90", "-", "-", "-", "0.80", "52 / 104", "0.92 / 1.00", "7.7 (-3.0)",
+                     "-0.20"]
+    extra = {"partition:general_lateral": {"mod2": {"mpjpe_cm": 15.0}, "posture_accuracy": 0.8, "turn_bias_deg": -7.2},
+             "partition:propped_lateral": {"mod2": {"mpjpe_cm": 16.0}, "posture_accuracy": 0.7, "turn_bias_deg": -8.34}}
+    cells = [c.strip() for c in bench.row("m", test, extra, real).strip("|").split("|")]
+    assert cells[4:7] == ["15.00 / 0.80", "16.00 / 0.70", "-7.2 / -8.3"]
+    assert len(cells) == bench.HEADER.count("|") - 1
 
 
 def _rows(correct, err):
