@@ -94,7 +94,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
 
 def roll_errors(est_pose, true_pose) -> tuple[np.ndarray, np.ndarray]:
     """Degrees (B,) each, for SMPL poses (B, 72): the roll error (the estimated roll less the true
-    one, wrapped to (-180, 180]) and the turn error (|estimated roll| less |true roll|: negative
+    one, wrapped to [-180, 180)) and the turn error (|estimated roll| less |true roll|: negative
     where a turned body is read flatter, toward supine, than it lies)."""
     est, true = np.degrees(roll_angle(est_pose)), np.degrees(roll_angle(true_pose))
     return (est - true + 180.0) % 360.0 - 180.0, np.abs(est) - np.abs(true)
