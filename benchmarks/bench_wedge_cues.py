@@ -106,36 +106,35 @@ def read_propped(net, sets: dict) -> list[dict]:
 def squeeze_across(images: np.ndarray, factor: float) -> np.ndarray:
     """(N, R, C) images squeezed across the bed (columns) about each image's load-centroid column by
     ``factor`` (< 1 narrower), linearly interpolated, each image's total load kept."""
-    out = np.zeros_like(images, dtype=np.float64)
-    cols = np.arange(images.shape[2], dtype=np.float64)
-    for i, p in enumerate(images):
-        total = p.sum()
-        if total <= 0:
-            continue
-        axis = (p.sum(0) @ cols) / total
-        src = axis + (cols - axis) / factor
-        for r in range(p.shape[0]):
-            out[i, r] = np.interp(src, cols, p[r], left=0.0, right=0.0)
-        out[i] *= total / max(out[i].sum(), 1e-12)
+    p = np.asarray(images, dtype=np.float64)
+    n_cols = p.shape[2]
+    cols = np.arange(n_cols, dtype=np.float64)
+    total = p.sum((1, 2))
+    axis = (p.sum(1) @ cols) / np.where(total > 0, total, 1.0)  # (N,)
+    src = axis[:, None] + (cols[None, :] - axis[:, None]) / factor  # (N, C) source column of each column
+    lo = np.floor(src).astype(np.int64)
+    w = src - lo
+
+    def take(k):  # (N, R, C): each image's column k[n, c] of every row, 0 beyond the mat
+        got = np.take_along_axis(p, np.clip(k, 0, n_cols - 1)[:, None, :].repeat(p.shape[1], 1), 2)
+        return np.where(((k >= 0) & (k < n_cols))[:, None, :], got, 0.0)
+
+    inside = ((src >= 0) & (src <= n_cols - 1))[:, None, :]  # as np.interp with zero beyond the ends
+    out = np.where(inside, take(lo) * (1 - w)[:, None, :] + take(lo + 1) * w[:, None, :], 0.0)
+    now = out.sum((1, 2))
+    out *= (total / np.where(now > 0, now, 1.0))[:, None, None]
+    out[total <= 0] = 0.0
     return out
 
 
 def real_inputs(net, folder: Path):
-    """PMD-I's flat-bed images as ``evaluate-real`` prepares them for ``net``, each once per body
-    model: (images (K, R, C), genders (K,), posture labels (K,), details (K,))."""
+    """PMD-I's images as ``evaluate-real`` reads them with ``net`` (:func:`pressurepose.eval.real.model_inputs`),
+    each once per body model: (images (K, R, C), genders (K,), posture labels (K,), details (K,))."""
     from pressurepose.data.readers.real import read_real
-    from pressurepose.data.realprep import prepare
-    from pressurepose.eval.real import RealEvalConfig, weak_images
-    from pressurepose.sim.bed import MatSpec
+    from pressurepose.eval.real import model_inputs
 
-    real = read_real(folder)
-    flat = real.posture != "inclined"
-    r = real.select(flat & ~(weak_images(real, RealEvalConfig().weak_fraction) & flat))
-    grid = net.config.grid
-    x = prepare(r.images, r.mat, r.units, MatSpec("model", *grid.shape, grid.pitch_row_m, grid.pitch_col_m),
-                weight_kg=r.weight_kg, gain=r.gain)
-    idx = np.repeat(np.arange(len(x)), 2)
-    return x[idx], ["f", "m"] * len(x), r.posture[idx], np.asarray(r.detail, dtype=str)[idx]
+    r, x, idx, genders, _ = model_inputs(read_real(folder), net)
+    return x[idx], genders, r.posture[idx], np.asarray(r.detail, dtype=str)[idx]
 
 
 def read_squeezed(net, x, genders, labels, details, factors) -> list[dict]:
@@ -159,33 +158,30 @@ def read_squeezed(net, x, genders, labels, details, factors) -> list[dict]:
 def region_widths(images, mat, floor_mmhg: float = 5.0) -> np.ndarray:
     """(N, 7) cm: per region of :data:`pressurepose.eval.realism.REGIONS` (fractions of the body's
     extent along the bed), the median over its rows of the width of the contact run (taxels above
-    ``floor_mmhg``) through the image's load-centroid column (within 2 columns); NaN where unmeasured."""
+    ``floor_mmhg``) through the image's load-centroid column (or the nearest contact within 2
+    columns of it); NaN where unmeasured."""
+    from scipy import ndimage
+
     from pressurepose.eval import realism as R
 
     p_all = np.asarray(images, dtype=np.float64)
     ext = R.body_extent(p_all, mat)
     cuts = np.concatenate([[0.0], R.DEFAULT_RULE.bounds, [1.0]])
     out = np.full((len(p_all), len(R.REGIONS)), np.nan)
-    cols = np.arange(p_all.shape[2])
+    n_rows, n_cols = p_all.shape[1:]
+    cols, rows = np.arange(n_cols), np.arange(n_rows)
+    along_rows = np.array([[0, 0, 0], [1, 1, 1], [0, 0, 0]])  # runs within a row only
     for i, p in enumerate(p_all):
         a, b = ext[i]
         if not np.isfinite(a) or p.sum() <= 0:
             continue
-        c = p > floor_mmhg
+        runs, _ = ndimage.label(p > floor_mmhg, structure=along_rows)
+        size = np.bincount(runs.ravel())
+        size[0] = 0
         axis = int(round((p.sum(0) @ cols) / p.sum()))
-        width = np.zeros(p.shape[0])
-        for r in range(p.shape[0]):
-            near = [k for k in sorted(range(max(0, axis - 2), min(p.shape[1], axis + 3)), key=lambda k: abs(k - axis))
-                    if c[r, k]]
-            if not near:
-                continue
-            lo = hi = near[0]
-            while lo > 0 and c[r, lo - 1]:
-                lo -= 1
-            while hi < p.shape[1] - 1 and c[r, hi + 1]:
-                hi += 1
-            width[r] = hi - lo + 1
-        frac = (np.arange(p.shape[0]) + 0.5 - a) / (b - a)
+        near = runs[:, np.clip(axis + np.array([0, -1, 1, -2, 2]), 0, n_cols - 1)]  # (R, 5), nearest first
+        width = size[near[rows, np.argmax(near > 0, axis=1)]]
+        frac = (rows + 0.5 - a) / (b - a)
         for k in range(len(R.REGIONS)):
             sel = (frac >= cuts[k]) & (frac < cuts[k + 1])
             if sel.any():

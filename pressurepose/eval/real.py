@@ -65,11 +65,10 @@ def weak_images(real: RealImages, fraction: float) -> np.ndarray:
     return weak
 
 
-def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()) -> dict:
-    """Estimates and per-estimate scores: {'rows': {name: (K,) array}, 'estimate': Estimate,
-    'input': (K, R, C) model input, 'summary': :func:`summarise`, 'skipped': {reason: count}}."""
-    from pressurepose.net.infer import estimate
-
+def model_inputs(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()):
+    """The images of ``real`` that are scored (flat bed, not weak) as ``net``'s input, each once per
+    body model it is read with: (the kept RealImages r, x (N, R, C) mmHg on the model's mat, idx (K,)
+    into r, genders (K,), {reason: count} of the images left out)."""
     flat = real.posture != "inclined"
     weak = weak_images(real, config.weak_fraction) & flat
     keep = flat & ~weak
@@ -83,7 +82,15 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
         use = [g] if g and not config.force_gender else (["f", "m"] if config.gender == "both" else [config.gender])
         idx += [i] * len(use)
         genders += use
-    idx = np.array(idx)
+    return r, x, np.array(idx), genders, {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())}
+
+
+def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()) -> dict:
+    """Estimates and per-estimate scores: {'rows': {name: (K,) array}, 'estimate': Estimate,
+    'input': (K, R, C) model input, 'summary': :func:`summarise`, 'skipped': {reason: count}}."""
+    from pressurepose.net.infer import estimate
+
+    r, x, idx, genders, skipped = model_inputs(real, net, config)
     contact_mmhg = contact_threshold(net, config)
     est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror)
     pred = posture_of(est.pose)
@@ -97,8 +104,8 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
             "mass_err_kg": m - r.weight_kg[idx],
             "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg)}
     return {"rows": rows, "estimate": est, "input": x[idx], "summary": summarise(rows),
-            "skipped": {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())},
-            "n_images": int(keep.sum()), "contact_mmhg": contact_mmhg}
+            "skipped": skipped,
+            "n_images": len(r), "contact_mmhg": contact_mmhg}
 
 
 def contact_threshold(net, config: RealEvalConfig) -> float:

@@ -45,3 +45,15 @@ def test_region_widths_measure_the_run_through_the_body_axis():
     assert np.all(np.isnan(region_widths(np.zeros((1, 64, 27)), MAT)))
     faint = region_widths(_body(10, value=3.0)[None], MAT)  # under the 5 mmHg floor: no contact
     assert np.all(np.isnan(faint) | (faint == 0))
+
+
+def test_squeezing_interpolates_each_row_as_np_interp_does():
+    rng = np.random.default_rng(1)
+    x = rng.random((2, 5, 27)) * 30
+    cols = np.arange(27.0)
+    for f in (0.6, 1.4):
+        y = squeeze_across(x, f)
+        for i, p in enumerate(x):
+            axis = (p.sum(0) @ cols) / p.sum()
+            ref = np.stack([np.interp(axis + (cols - axis) / f, cols, row, left=0.0, right=0.0) for row in p])
+            assert np.allclose(y[i], ref * p.sum() / ref.sum())
