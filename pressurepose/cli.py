@@ -74,8 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         sys.argv = sys_argv
     if not getattr(args, "verb", None):
-        parser.print_help()
-        return 0
+        parser.print_help(sys.stderr)  # a verb is required: usage goes to stderr with argparse's status
+        return 2
     run = getattr(importlib.import_module(args._module), f"run_{args._stem}")
     try:
         return int(run(args) or 0)

@@ -224,6 +224,11 @@ def open_output(out: Path, config: GenerationConfig) -> Manifest:
     if strays:
         raise BadInput(f"{out} has shard files ({', '.join(strays[:3])}...) but no {MANIFEST}; "
                        f"refusing to mix datasets. Use an empty --out")
+    others = sorted(p.name for p in out.iterdir() if not (is_temp_name(p.name) or ".corrupt-" in p.name))
+    if others:
+        raise BadInput(f"{out} is not empty and holds no dataset ({', '.join(others[:3])}"
+                       f"{', ...' if len(others) > 3 else ''}); a dataset is written into a folder of its own. "
+                       f"Use an empty or new --out")
     manifest = Manifest.new(config, producer_provenance(config))
     manifest.save(out)
     return manifest

@@ -188,3 +188,18 @@ def test_sampler_settings_are_in_the_config_and_a_legacy_manifest_reads_as_the_p
         GenerationConfig(partition="general", gender="f", randomize="yes")
     with pytest.raises(BadInput, match="across_sd_m"):
         GenerationConfig(partition="general", gender="f", across_sd_m=float("nan"))
+
+
+def test_a_folder_of_other_files_is_refused_and_left_as_it_was(tmp_path):
+    """--out pointed at a folder of the user's own files (a home or project folder) writes nothing there."""
+    out = tmp_path / "notes"
+    out.mkdir()
+    (out / "thesis.tex").write_text("mine")
+    (out / "figures").mkdir()
+    before = sorted(p.name for p in out.iterdir())
+    with pytest.raises(BadInput, match=r"not empty and holds no dataset \(figures, thesis.tex\)"):
+        generate(small_config(count=6, shard_size=6), out, progress=False)
+    assert sorted(p.name for p in out.iterdir()) == before and (out / "thesis.tex").read_text() == "mine"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert generate(small_config(count=6, shard_size=6), empty, progress=False).made == 1
