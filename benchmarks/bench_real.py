@@ -107,7 +107,7 @@ def main() -> int:
         "## PressureNet on real images: PhysioNet PMD experiment I (`benchmarks/bench_real.py`)",
         "",
         f"{datetime.date.today().isoformat()}, {platform.platform()}, {os.cpu_count()} CPUs; the shipped model "
-        f"(how it was made: section gpu-rebuild, the shipped model since session 14). Reproduce: "
+        f"(how it was made: section turn-loss, the shipped model since session 17: `turnB`). Reproduce: "
         f"`python -m benchmarks.bench_real` or "
         f"`pressurepose evaluate-real ../shared/data/pmd-experiment-i --out X` (default options: one image per "
         f"recording, the median of its non-blank frames; raw readings weight-normalised to mmHg; resampled from the "

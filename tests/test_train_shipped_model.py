@@ -137,3 +137,30 @@ def test_train_on_a_pack_made_elsewhere_and_ship_to_a_folder(tmp_path):
         "pressurenet.json", "pressurenet.mod1.safetensors", "pressurenet.mod2.safetensors"]
     bad = subprocess.run([*cmd[:2], "--train-data", "x.npz", "--data-only"], capture_output=True, text=True)
     assert bad.returncode == 2 and "cannot go with --data-only" in bad.stderr
+
+
+def test_the_tools_defaults_train_as_the_shipped_model_was_trained(tmp_path, monkeypatch):
+    """The shipped model's record (pressurepose/net/assets/pressurenet.json) holds its training options;
+    the tool's default train call must pass the same ones, or it would not rebuild that model."""
+    import sys
+
+    from pressurepose.net.commands import add_train_arguments
+
+    calls = []
+    T = _tool()
+    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    monkeypatch.setattr(sys, "argv", ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--skip-generate",
+                                      "--real", str(tmp_path / "none")])
+    assert T.main() == 0
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_train_arguments(parser)
+    got = parser.parse_args([a for a in next(c for c in calls if c[0] == "train")[1:]])
+    shipped = json.loads((TOOL.parents[1] / "pressurepose" / "net" / "assets" / "pressurenet.json").read_text())["train"]
+    for key, arg in [("epochs_mod1", "epochs_mod1"), ("epochs_mod2", "epochs_mod2"), ("lr", "lr"),
+                     ("lr_mod2", "lr_mod2"), ("lr_schedule", "lr_schedule"), ("batch_size", "batch_size"),
+                     ("cnn", "cnn"), ("cpu_amp", "cpu_amp"), ("contact_floor_mmhg", "contact_floor"),
+                     ("gender_input", "gender_input"), ("seed", "seed"), ("turn_loss", "turn_loss"),
+                     ("mirror_p", "mirror_p")]:
+        assert getattr(got, arg) == shipped[key], key
