@@ -167,8 +167,8 @@ def main(argv=None) -> int:
 
     head = "| images | n | " + " | ".join(R.REGIONS) + " | worst gap to real (pp) |"
     rule = "|---|---|" + "---|" * (len(R.REGIONS) + 1)
-    real_mean = {p: 100 * np.nanmean(R.region_shares(real.pressure[real.posture == p], mat), 0)
-                 for p in ("lateral", "supine")}
+    real_shares = {p: R.region_shares(real.pressure[real.posture == p], mat) for p in ("lateral", "supine")}
+    real_mean = {p: 100 * np.nanmean(x, 0) for p, x in real_shares.items()}
     lat_images, lat_joints = pressed["lateral"]
     base = lat_images["default bones"]
     shares = R.region_shares(base, mat)
@@ -181,8 +181,7 @@ def main(argv=None) -> int:
              "(`pressurepose.eval.realism`, unmatched extents). Reproduce: `python -m benchmarks.bench_lateral_shoulder`.",
              "", "**1. Side-lying bodies by where the lower arm lies** (angle between the lower upper arm and "
              "the trunk's axis; default bones):", "", head, rule,
-             row("real, flat side lying", int((real.posture == "lateral").sum()),
-                 R.region_shares(real.pressure[real.posture == "lateral"], mat)),
+             row("real, flat side lying", len(real_shares["lateral"]), real_shares["lateral"]),
              row("simulated, all side-lying", len(base), shares, real_mean["lateral"])]
     for name, lo, hi in ARM_GROUPS:
         sel = (angle >= lo) & (angle < hi)

@@ -170,7 +170,7 @@ def _set_aside_unreadable_manifest(out: Path) -> None:
     import os
     import time
 
-    from pressurepose.data.store import FORMAT, MANIFEST
+    from pressurepose.data.store import FORMAT, MANIFEST, set_aside_path
 
     if not (out / MANIFEST).is_file():
         return
@@ -182,7 +182,7 @@ def _set_aside_unreadable_manifest(out: Path) -> None:
         pass
     stamp = time.strftime("%Y%m%d-%H%M%S")
     for p in [out / MANIFEST, *sorted(out.glob("shard-*.h5"))]:
-        os.replace(p, p.with_name(f"{p.name}.corrupt-{stamp}"))
+        os.replace(p, set_aside_path(p, stamp))
     print(f"note: {out / MANIFEST} was unreadable; set it and its shards aside (*.corrupt-{stamp})",
           file=sys.stderr)
 

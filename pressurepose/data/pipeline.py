@@ -28,8 +28,9 @@ from typing import Callable
 from pressurepose import __version__
 from pressurepose.data.producers import Rejected, attempt_rng, resolve_producer
 from pressurepose.data.schema import GenerationConfig, Sample
-from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, is_temp_name,
-                                     sha256_bytes, shard_name, stage_bytes, verify_shard)
+from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, is_set_aside_name,
+                                     is_temp_name, set_aside_path, sha256_bytes, shard_name, stage_bytes,
+                                     verify_shard)
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import get_mat
 
@@ -224,7 +225,7 @@ def open_output(out: Path, config: GenerationConfig) -> Manifest:
     if strays:
         raise BadInput(f"{out} has shard files ({', '.join(strays[:3])}...) but no {MANIFEST}; "
                        f"refusing to mix datasets. Use an empty --out")
-    others = sorted(p.name for p in out.iterdir() if not (is_temp_name(p.name) or ".corrupt-" in p.name))
+    others = sorted(p.name for p in out.iterdir() if not (is_temp_name(p.name) or is_set_aside_name(p.name)))
     if others:
         raise BadInput(f"{out} is not empty and holds no dataset ({', '.join(others[:3])}"
                        f"{', ...' if len(others) > 3 else ''}); a dataset is written into a folder of its own. "
@@ -286,7 +287,7 @@ def check_shards(out: Path, manifest: Manifest, repair: bool = False) -> list[in
         for k in todo:
             path = out / shard_name(k)
             if path.exists():
-                os.replace(path, path.with_name(f"{path.name}.corrupt-{stamp}"))
+                os.replace(path, set_aside_path(path, stamp))
                 manifest.shards.pop(k, None)
     return todo
 

@@ -53,6 +53,19 @@ def is_temp_name(name: str) -> bool:
     return name.startswith(".") and ".tmp-" in name
 
 
+SET_ASIDE = ".corrupt-"  # a bad file set aside by --repair is renamed NAME.corrupt-<time>
+
+
+def set_aside_path(path: Path, stamp: str) -> Path:
+    """Where ``--repair`` moves a bad file: ``path`` renamed ``NAME.corrupt-<stamp>``."""
+    return path.with_name(f"{path.name}{SET_ASIDE}{stamp}")
+
+
+def is_set_aside_name(name: str) -> bool:
+    """True for the names of files ``--repair`` set aside (:func:`set_aside_path`)."""
+    return SET_ASIDE in name
+
+
 # --------------------------------------------------------------------------- atomic files
 
 

@@ -90,3 +90,16 @@ def test_info_refuses_to_pool_datasets_of_different_mats(tmp_path, capsys):
     assert main(["info", str(tmp_path / "mix")]) == 2
     assert "2 mats (boditrak_bt3510, tip)" in capsys.readouterr().err
     assert main(["info", str(tmp_path / "mix" / "b")]) == 0
+
+
+def test_repair_sets_an_unreadable_manifest_aside_and_makes_the_dataset_in_the_same_folder(tmp_path, capsys):
+    """The folder then holds only set-aside files: --repair makes the dataset there, not the refusal of a
+    folder of other files."""
+    args = ["generate", "--partition", "general_supine", "--gender", "f", "--count", "4", "--seed", "3",
+            "--producer", "synthetic", "--out", str(tmp_path / "d"), "--no-progress"]
+    assert main(args) == 0
+    (tmp_path / "d" / "manifest.json").write_text("{not json")
+    assert main(args) == 2 and "--repair" in capsys.readouterr().err
+    assert main(args + ["--repair"]) == 0
+    assert len(DatasetReader(tmp_path / "d")) == 4
+    assert len(list((tmp_path / "d").glob("manifest.json.corrupt-*"))) == 1
