@@ -142,14 +142,19 @@ def press_variants(paths, side_lying: bool) -> tuple[dict[str, np.ndarray], np.n
     return {v: np.array(x) for v, x in images.items()}, np.array(joints)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def parse_args(doc: str, argv=None) -> argparse.Namespace:
+    """The options of this benchmark and of those that read its datasets (``bench_lateral_profile``)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="PMD experiment I folder")
     ap.add_argument("--count", type=int, default=40, help="bodies per partition and gender [40]")
     ap.add_argument("--seed", type=int, default=31, help="their seed [31]")
     ap.add_argument("--out", type=Path, default=REPO / "runs" / "bench_lateral_shoulder")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = parse_args(__doc__, argv)
     from pressurepose.eval import realism as R
     from pressurepose.eval.realism_report import load_real
     from pressurepose.sim.bed import get_mat

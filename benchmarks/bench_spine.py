@@ -46,20 +46,23 @@ def stiffness_of(name: str) -> float | None:
     return None if name == PAPER else float(name)
 
 
-def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int, stiffness: float | None,
-                 coarse_factor: float = SettleConfig.coarse_factor) -> None:
+def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int,
+                 settle_config: SettleConfig) -> None:
     """``count`` accepted bodies of (partition, gender), drawn as ``generate --seed`` draws them,
-    settled with ``stiffness`` and ``coarse_factor`` (the settle's step after touching, x 0.01 s);
-    written as a ``simulate``-style .npz."""
+    settled with ``settle_config``; written as a ``simulate``-style .npz (with the settled joints,
+    the ``attempts`` made and their ``cpu_s``)."""
+    import time
+
     from pressurepose.data.physics import sampler_config, setup
     from pressurepose.sim.simulate import simulate_one
 
     config = GenerationConfig(partition=partition, gender=gender, count=count, seed=seed)
     body, bed = setup(config)
-    settle_config = SettleConfig(spine_stiffness=stiffness, coarse_factor=coarse_factor)
-    keep = {k: [] for k in ("pressure", "force", "pose", "mass", "height")}
-    for i in tqdm(range(count), desc=f"spine {path.parent.name}: {path.stem}"):
+    keep = {k: [] for k in ("pressure", "force", "pose", "mass", "height", "joints")}
+    attempts, start = 0, time.process_time()
+    for i in tqdm(range(count), desc=f"{path.parent.name}: {path.stem}"):
         for attempt in range(config.max_attempts):
+            attempts += 1
             sim = simulate_one(body, bed, partition, gender, attempt_rng(config, i, attempt), config.limbs_on_bed,
                                sampler_config(config), settle_config=settle_config)
             if not isinstance(sim, str):
@@ -67,11 +70,13 @@ def simulate_set(path: Path, partition: str, gender: str, count: int, seed: int,
         else:
             raise SystemExit(f"{path}: sample {i} was rejected {config.max_attempts} times")
         for k, v in (("pressure", sim.image.pressure), ("force", sim.image.force), ("pose", sim.pose),
-                     ("mass", sim.mass), ("height", sim.height)):
+                     ("mass", sim.mass), ("height", sim.height), ("joints", sim.joints)):
             keep[k].append(v)
+    cpu = time.process_time() - start
+
     def write(tmp):
         with open(tmp, "wb") as f:  # a file object: np.savez would add ".npz" to the temporary name
-            np.savez(f, **{k: np.asarray(v) for k, v in keep.items()})
+            np.savez(f, attempts=attempts, cpu_s=cpu, **{k: np.asarray(v) for k, v in keep.items()})
 
     atomic_write(path, write)
 
@@ -86,7 +91,8 @@ def simulated(out: Path, name: str, count: int, seed: int,
         for g in ("f", "m"):
             path = folder / f"{partition}_{g}.npz"
             if not path.is_file():
-                simulate_set(path, partition, g, count, seed, stiffness_of(name), coarse_factor)
+                simulate_set(path, partition, g, count, seed,
+                             SettleConfig(spine_stiffness=stiffness_of(name), coarse_factor=coarse_factor))
             sets.append(load_synthetic(path))
     cat = lambda k: np.concatenate([getattr(s, k) for s in sets])  # noqa: E731
     return ImageSet(f"simulated (spine {name})", cat("pressure"), cat("posture"), sets[0].mat, cat("force"),

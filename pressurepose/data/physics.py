@@ -42,6 +42,19 @@ def settle_config(config: GenerationConfig):
     return settle_preset(config.settle)
 
 
+# Settle options added after datasets were made with the settle: recorded only when set, so a dataset
+# begun before them (and so made without them) still resumes.
+_SETTLE_OPTIONS_RECORDED_WHEN_SET = ("lateral_neck_flexion_deg",)
+
+
+def _settle_record(settle) -> dict:
+    from pressurepose.sim.settle import SettleConfig
+
+    default = SettleConfig()
+    return {k: v for k, v in dataclasses.asdict(settle).items()
+            if k not in _SETTLE_OPTIONS_RECORDED_WHEN_SET or v != getattr(default, k)}
+
+
 def provenance(config: GenerationConfig) -> dict:
     """Every setting of the physics a dataset is made with, as JSON-ready values: the sampler's
     (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``), for a
@@ -50,7 +63,7 @@ def provenance(config: GenerationConfig) -> dict:
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
     record = {"sampler": dataclasses.asdict(sampler_config(config)),
-              "settle": dataclasses.asdict(settle_config(config)), "bed": config.bed_spec().to_dict()}
+              "settle": _settle_record(settle_config(config)), "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges
 

@@ -192,6 +192,37 @@ def extent_ratio(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE
     return (ext[:, 1] - ext[:, 0]) * mat.pitch_row_m / h
 
 
+PROFILE_BAND = 0.05   # load_profile's bands, fraction of the stature
+PROFILE_REACH = 0.70  # how far below the head end it reaches (the legs' load lies beyond)
+
+
+def load_profile(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE, head=None,
+                 band: float = PROFILE_BAND, reach: float = PROFILE_REACH) -> np.ndarray:
+    """(N, B) percent of each image's load in bands of ``band`` x its stature ``height_m`` (N,) m
+    below the head end of its extent (:func:`body_extent`), out to ``reach`` x the stature (B =
+    round(reach / band); load beyond it is not counted; NaN rows for images without contact).
+    Unlike the region shares it does not scale with the extent, so it says where along the body
+    the load lies however the legs lie (a side-lying shoulder's load, for one)."""
+    p = _images(images)
+    _check_mat(p, mat)
+    h = np.asarray(height_m, dtype=np.float64).reshape(-1)
+    if h.shape != (len(p),) or not np.all(np.isfinite(h)) or np.any(h <= 0):
+        raise BadInput(f"height_m has shape {h.shape}; expected ({len(p)},) positive statures in metres")
+    if not (0 < band < reach <= 1.5):
+        raise BadInput(f"profile band {band!r} and reach {reach!r}: expected 0 < band < reach <= 1.5")
+    edges = np.linspace(0.0, band * round(reach / band), round(reach / band) + 1)
+    ext = body_extent(p, mat, rule, head)
+    centres = np.arange(p.shape[1]) + 0.5
+    out = np.full((len(p), len(edges) - 1), np.nan)
+    for i in range(len(p)):
+        load = p[i].sum(1)
+        if not np.isfinite(ext[i, 0]) or load.sum() <= 0:
+            continue
+        below = (centres - ext[i, 0]) * mat.pitch_row_m / h[i]
+        out[i] = 100 * np.histogram(below, edges, weights=load / load.sum())[0]
+    return out
+
+
 MATCH_BINS = np.arange(0.5, 1.15, 0.05)  # extent ratio bins (open at both ends) for match_by
 
 

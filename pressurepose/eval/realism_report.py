@@ -44,19 +44,30 @@ class ImageSet:
         return R.image_stats(self.pressure, self.mat, rule, force_n=self.force, mass_kg=self.mass)
 
 
+def real_selection(real, *, exclude_detail: tuple[str, ...] = ("wedge",), weak_fraction: float = 0.1,
+                   only_detail: tuple[str, ...] = ()) -> np.ndarray:
+    """(N,) bool: the images of a ``RealImages`` (``pressurepose.data.readers.real.read_real``) that
+    :func:`load_real` keeps: a flat-bed supine, lateral or prone label, none of ``exclude_detail``'s
+    words in the source posture (all of ``only_detail``'s if given), not a barely recorded mat."""
+    from pressurepose.eval.real import detail_has, weak_images
+
+    keep = (R.posture_group(real.posture) != "") & ~detail_has(real.detail, exclude_detail) \
+        & ~weak_images(real, weak_fraction)
+    if only_detail:
+        keep &= detail_has(real.detail, only_detail)
+    return keep
+
+
 def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge",), frames: str = "one",
               weak_fraction: float = 0.1, only_detail: tuple[str, ...] = ()) -> ImageSet:
     """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring);
     ``only_detail``: keep only images whose source posture names one of these words (e.g. "wedge")."""
     from pressurepose.data.readers.real import read_real
     from pressurepose.data.realprep import prepare
-    from pressurepose.eval.real import detail_has, weak_images
 
     real = read_real(folder, frames=frames)
     group = R.posture_group(real.posture)
-    keep = (group != "") & ~detail_has(real.detail, exclude_detail) & ~weak_images(real, weak_fraction)
-    if only_detail:
-        keep &= detail_has(real.detail, only_detail)
+    keep = real_selection(real, exclude_detail=exclude_detail, weak_fraction=weak_fraction, only_detail=only_detail)
     if not keep.any():
         raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label"
                        + (f" naming {' or '.join(only_detail)}" if only_detail else ""))
@@ -117,7 +128,10 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
 def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT_RULE, match: bool = False,
                    seed: int = 0) -> dict:
     """{'rule', 'mat', 'postures': {group: {'real': summary, 'simulated': summary, 'distance':
-    compare(...)}}} over the posture groups present in both sets (BadInput when none is).
+    compare(...)}}} over the posture groups present in both sets (BadInput when none is). Where
+    both sets know their people's statures, each group also has ``profile`` {'band', 'real',
+    'simulated'}: the mean percent of the load per band of the stature below the head end
+    (:func:`~.realism.load_profile`).
 
     ``match``: compare like postures: within each group the simulated images are resampled (seeded)
     so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
@@ -163,9 +177,23 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
                 seed=seed)
         except BadInput:  # no image with contact on one side: no interval
             pass
+        if real.height is not None and sim.height is not None:
+            entry["profile"] = _profiles(real, sim, rsel, ssel, weight, rule)
         out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
                               **entry}
     return out
+
+
+def _profiles(real: ImageSet, sim: ImageSet, rsel, ssel, weight, rule: R.RegionRule) -> dict:
+    """{'band', 'real', 'simulated'}: the mean :func:`~.realism.load_profile` (percent of the load
+    per band of the stature below the head end) of the real images ``rsel`` and of the simulated
+    images ``ssel`` weighted by ``weight`` (the matched resample's counts)."""
+    def mean(st: ImageSet, idx, w) -> list:
+        prof = R.load_profile(st.pressure[idx], st.mat, st.height[idx], rule)
+        ok = np.isfinite(prof).all(1) & (w > 0)
+        return [float(v) for v in np.average(prof[ok], axis=0, weights=w[ok])] if ok.any() else []
+
+    return {"band": R.PROFILE_BAND, "real": mean(real, rsel, np.ones(len(rsel))), "simulated": mean(sim, ssel, weight)}
 
 
 def _median(v) -> float | None:
@@ -199,7 +227,8 @@ def headline(report: dict) -> list[dict]:
 def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.RegionRule = R.DEFAULT_RULE,
                 examples: int = 3, seed: int = 0):
     """PNG at ``path``: per posture, box plots of contact area, mean and peak pressure and region
-    load shares (real vs simulated), and ``examples`` real and simulated images at one colour scale."""
+    load shares (real vs simulated), the mean load along the body (where the report has it), and
+    ``examples`` real and simulated images at one colour scale."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -210,7 +239,7 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
     groups = list(report["postures"])
     rs, ss = real.stats(rule), sim.stats(rule)
     rng = np.random.default_rng(seed)
-    fig = plt.figure(figsize=(15, 6.2 * len(groups)))
+    fig = plt.figure(figsize=(17, 6.2 * len(groups)))
     outer = fig.add_gridspec(2 * len(groups), 1, height_ratios=[1, 1.35] * len(groups), hspace=0.5,
                              top=1 - 0.7 / len(groups) / 6.2, bottom=0.03)
     colours = {"real": "tab:orange", "simulated": "tab:blue"}
@@ -218,7 +247,7 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
                                                sim.pressure[sim.pressure > rule.contact_mmhg]]), 99))
     for gi, g in enumerate(groups):
         r_sel, s_sel = real.posture == g, sim.posture == g
-        row = outer[2 * gi].subgridspec(1, 5, width_ratios=[1, 1, 1, 0.2, 3.2], wspace=0.35)
+        row = outer[2 * gi].subgridspec(1, 7, width_ratios=[1, 1, 1, 0.2, 3.2, 0.15, 1.8], wspace=0.35)
         for k, (key, label) in enumerate((("contact_cm2", "contact area, cm$^2$"), ("mean_mmhg", "mean contact, mmHg"),
                                           ("peak_mmhg", "peak, mmHg"))):
             ax = fig.add_subplot(row[k])
@@ -228,7 +257,7 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
                 patch.set_facecolor(c)
                 patch.set_alpha(0.6)
             ax.set_xticks([1, 2], [f"real\n{len(data[0])}", f"sim\n{len(data[1])}"], fontsize=9)
-            ax.set_title(f"{g}: {label}", fontsize=10)
+            ax.set_title(f"{g}:\n{label}", fontsize=9)
         ax = fig.add_subplot(row[4])
         x = np.arange(len(R.REGIONS))
         for off, (name, st, sel) in zip((-0.2, 0.2), (("real", rs, r_sel), ("simulated", ss, s_sel))):
@@ -244,6 +273,16 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
         ax.set_title(f"{g}: load share by region (orange real, blue simulated)", fontsize=10)
         ax.set_xlabel(f"head imprint: real {head['real']['head_imprint']['rate']:.0%}, simulated "
                       f"{head['simulated']['head_imprint']['rate']:.0%}", fontsize=10)
+        profile = head.get("profile")
+        if profile and profile["real"] and profile["simulated"]:
+            ax = fig.add_subplot(row[6])
+            for name in ("real", "simulated"):
+                y = np.asarray(profile[name])
+                ax.plot(y, 100 * profile["band"] * (np.arange(len(y)) + 0.5), color=colours[name], marker="o", ms=3)
+            ax.invert_yaxis()
+            ax.set_ylabel("below the head end, % of stature")
+            ax.set_xlabel("% of the load per band")
+            ax.set_title(f"{g}: load along the body", fontsize=10)
         imgs = outer[2 * gi + 1].subgridspec(1, 2 * examples + 1, wspace=0.08, width_ratios=[1] * 2 * examples + [0.08])
         im = None
         for j, (name, st, sel, ps) in enumerate((("real", rs, r_sel, real.pressure),

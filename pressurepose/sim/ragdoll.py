@@ -104,6 +104,18 @@ SELF_COLLIDING = ("left_calf", "right_calf", "left_foot", "right_foot", "left_fo
                   "left_hand", "right_hand")
 
 
+def flexed_neck_home(home: np.ndarray, flexion_rad: float) -> np.ndarray:
+    """A copy of a ragdoll's spring rest pose ``home`` (20, 3) (SMPL axis-angle per capsule, as
+    :attr:`RagdollParams.home`) with the neck and head joints flexed forward by ``flexion_rad`` in
+    all, half at each (SMPL's x axis: + brings the chin toward the chest)."""
+    out = np.array(home, dtype=np.float64, copy=True)
+    if out.shape != (len(CAPSULE_JOINTS), 3):
+        raise BadInput(f"home has shape {out.shape}; expected ({len(CAPSULE_JOINTS)}, 3)")
+    k = [list(CAPSULE_JOINTS).index(j) for j in NECK_JOINTS]
+    out[k, 0] += float(flexion_rad) / 2
+    return out
+
+
 def home_pose() -> np.ndarray:
     """(72,) SMPL axis-angle of the home pose: every joint 0 except the arms lowered to the sides
     (90 degrees about SMPL's z, split 1 : 2 between collar and shoulder as the sampler splits it)."""

@@ -70,7 +70,7 @@ from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sin
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
 from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex,
-                                      RagdollParams, add_ragdoll, limit_torques, local_to_smpl, pose_to_qpos,
+                                      RagdollParams, add_ragdoll, flexed_neck_home, limit_torques, local_to_smpl, pose_to_qpos,
                                       quat_to_rotvec, qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
@@ -116,6 +116,11 @@ class SettleConfig:
         cells keep the mass chosen for ``timestep_s`` (spring-mass frequency times the coarse step:
         ``coarse_factor x`` CELL_OMEGA_DT, inside the stable range). Rests differ from the fine
         step's no more than those of two starts 2 mm apart do (docs/throughput.md).
+    lateral_neck_flexion_deg: for a body drawn on its side (its start pose's posture class), the
+        neck's and head's springs rest flexed forward by this many degrees in all (0, the default:
+        the home pose's straight neck for every body). An option for side-lying realism studies
+        (docs/sim_to_real.md, session 18), not a default: it moves the loaded shoulder of
+        simulated side-lying images toward the real ones', and costs head imprints.
     """
 
     timestep_s: float = 0.01
@@ -143,6 +148,7 @@ class SettleConfig:
     spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS
     coarse_factor: float = 2.0
     coarse_after_steps: int = 150
+    lateral_neck_flexion_deg: float = 0.0
 
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
@@ -161,6 +167,9 @@ class SettleConfig:
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
             raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, "
                            f"or None for the paper's")
+        v = self.lateral_neck_flexion_deg
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v <= 90.0:
+            raise BadInput(f"settle lateral_neck_flexion_deg is {v!r}; expected degrees from 0 to 90")
         c = self.coarse_factor
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 1.0 <= c <= 4.0:
             raise BadInput(f"settle coarse_factor is {c!r}; expected a number from 1 (no coarse step) to 4")
@@ -500,6 +509,9 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         masses = segment_masses(body, betas, g, caps=caps)
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck,
                                 spine_stiffness=config.spine_stiffness)
+    if config.lateral_neck_flexion_deg > 0 and posture_class(pose) in ("left_lateral", "right_lateral"):
+        params = dataclasses.replace(params, home=flexed_neck_home(params.home,
+                                                                   math.radians(config.lateral_neck_flexion_deg)))
     sm = settle_model(bed, config, params, support=wedge)
     return _run(sm, params, betas, g, pose, transl)
 

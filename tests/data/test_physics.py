@@ -221,3 +221,18 @@ def test_generate_on_a_bed_file(tmp_path):
     assert "made on a given bed" in format_summary(summarize(tmp_path / "b", examples=0))
     assert "given bed" not in format_summary(summarize(tmp_path / "a", examples=0))
     assert main(common + ["--out", str(tmp_path / "c"), "--bed", str(tmp_path / "bed.json"), "--mat", "slp"]) == 2
+
+
+def test_a_settle_option_added_later_is_recorded_only_when_set():
+    """Datasets begun before ``lateral_neck_flexion_deg`` existed hold no such key; at its default
+    the provenance still has none, so they resume; a settle with it set records it."""
+    import dataclasses
+
+    from pressurepose.data import physics
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.sim.settle import SettleConfig
+
+    record = physics.provenance(GenerationConfig(partition="general_lateral", gender="f", count=2, seed=3))
+    assert "lateral_neck_flexion_deg" not in record["settle"]
+    assert set(record["settle"]) == {f.name for f in dataclasses.fields(SettleConfig)} - {"lateral_neck_flexion_deg"}
+    assert physics._settle_record(SettleConfig(lateral_neck_flexion_deg=30.0))["lateral_neck_flexion_deg"] == 30.0

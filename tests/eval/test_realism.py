@@ -139,8 +139,13 @@ def test_realism_verb_end_to_end(tmp_path):
     np.savez(tmp_path / "sim.npz", pressure=sim, force=force, pose=pose, mass=force.sum((1, 2)) / 9.81,
              height=np.full(3, 1.75))
     assert main(args) == 0
-    m = json.loads((out / "realism.json").read_text())["postures"]["supine"]["match"]
+    sup = json.loads((out / "realism.json").read_text())["postures"]["supine"]
+    m = sup["match"]
     assert m["coverage"] > 0 and m["distinct_sim_images"] >= 1
+    # with both sets' statures known, the load along the body is reported too
+    prof = sup["profile"]
+    assert prof["band"] == R.PROFILE_BAND and len(prof["real"]) == len(prof["simulated"]) == 14
+    assert 0 < sum(prof["simulated"]) <= 100 + 1e-9
     # only the wedge postures: this folder has none
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "sim.npz"),
                  "--out", str(out), "--only-wedge"]) == 2
@@ -224,3 +229,38 @@ def test_share_gap_interval_covers_the_known_gap_and_widens_for_clustered_people
     assert np.isfinite(R.share_gap_interval(sim_nan, real, n_boot=20)["worst"]).all()
     with pytest.raises(BadInput):
         R.share_gap_interval(sim, real[:, :5])
+
+
+def _column(first_row: int, rows: int, heavy_row: int) -> np.ndarray:
+    """A narrow column of contact from ``first_row`` for ``rows`` rows, with most of its load on
+    ``heavy_row``."""
+    img = np.zeros((MAT.rows, MAT.cols))
+    c = MAT.cols // 2
+    img[first_row: first_row + rows, c - 1: c + 2] = 10.0
+    img[heavy_row, c - 3: c + 4] = 200.0
+    return img
+
+
+def test_load_profile_puts_the_load_where_it_lies_below_the_head_end():
+    height = MAT.rows * MAT.pitch_row_m  # the stature spans the mat, so a band of 5 % is 3.2 rows
+    img = _column(4, 50, 4 + 13)  # the heavy row 13 rows (20 % of the stature) below the head end
+    prof = R.load_profile(img, MAT, [height])
+    assert prof.shape == (1, 14)
+    assert np.argmax(prof[0]) == 4  # the 20-25 % band
+    # the same body 6 rows further down the mat has the same profile
+    np.testing.assert_allclose(R.load_profile(_column(10, 50, 10 + 13), MAT, [height]), prof)
+    # a person half as tall: the same rows are twice the fraction of the stature
+    assert np.argmax(R.load_profile(img, MAT, [height / 2])[0]) == 8
+    # only load within the reach counts: here the rows beyond 70 % of the stature are left out
+    assert prof.sum() == pytest.approx(100 * img[:4 + 45].sum() / img.sum())
+    assert np.isnan(R.load_profile(np.zeros((MAT.rows, MAT.cols)), MAT, [1.7])).all()
+
+
+def test_load_profile_refuses_bad_input():
+    img = _column(4, 50, 17)
+    with pytest.raises(BadInput, match="height_m"):
+        R.load_profile(np.stack([img, img]), MAT, [1.7])
+    with pytest.raises(BadInput, match="height_m"):
+        R.load_profile(img, MAT, [0.0])
+    with pytest.raises(BadInput, match="band"):
+        R.load_profile(img, MAT, [1.7], band=0.8, reach=0.7)

@@ -459,3 +459,46 @@ def test_the_step_budget_is_kept_in_seconds_with_a_coarse_step(body, supine):
     fine_steps = res.touch_step + budget.coarse_after_steps
     expected = fine_steps + (budget.max_steps - fine_steps) / 2  # the rest of 1.5 s at 0.02 s
     assert abs(res.steps - expected) <= 1
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+def test_a_lateral_neck_flexion_flexes_side_lying_heads_only():
+    """``lateral_neck_flexion_deg`` rests the neck's and head's springs flexed forward for a body drawn
+    on its side: its settled neck and head flex by a good part of it (the head lies on the bed, so
+    not all of it), and a supine body's settle is the default's to the bit."""
+    from pressurepose.pose.sampler import body_rng, sample_one
+
+    body = BodyModel("female")
+    neck = [3 * JOINT_NAMES.index(n) for n in ("neck", "head")]  # SMPL x: + flexes forward
+    flex = dataclasses.replace(FAST, lateral_neck_flexion_deg=40.0)
+    side = sample_one("general_lateral", "f", body_rng(2, 0), body=body)  # settles either way
+    assert posture_class(side.pose) in ("left_lateral", "right_lateral")
+    flexion = {}
+    for name, cfg in (("default", FAST), ("flexed", flex)):
+        res = settle(body, side.betas, side.pose, side.transl, "female", BED, cfg)
+        assert res.ok
+        flexion[name] = np.degrees(res.pose[neck].sum())
+    assert flexion["flexed"] > flexion["default"] + 25.0
+    up = sample_one("general_supine", "f", body_rng(5, 0), body=body)
+    a = settle(body, up.betas, up.pose, up.transl, "female", BED, FAST)
+    b = settle(body, up.betas, up.pose, up.transl, "female", BED, flex)
+    np.testing.assert_array_equal(a.pose, b.pose)
+
+
+def test_flexed_neck_home_moves_only_the_neck_and_head():
+    from pressurepose.body.capsules import CAPSULE_JOINTS
+    from pressurepose.sim.ragdoll import flexed_neck_home
+
+    home = home_pose().reshape(24, 3)[list(CAPSULE_JOINTS)]
+    out = flexed_neck_home(home, 0.6)
+    moved = np.flatnonzero(np.any(out != home, axis=1))
+    assert [CAPSULE_JOINTS[k] for k in moved] == [JOINT_NAMES.index("neck"), JOINT_NAMES.index("head")]
+    np.testing.assert_allclose(out[moved, 0] - home[moved, 0], 0.3)
+    with pytest.raises(BadInput, match="home has shape"):
+        flexed_neck_home(home[:5], 0.6)
+
+
+@pytest.mark.parametrize("bad", [-1.0, 91.0, float("nan"), True])
+def test_settle_config_rejects_a_bad_neck_flexion(bad):
+    with pytest.raises(BadInput, match="lateral_neck_flexion_deg"):
+        SettleConfig(lateral_neck_flexion_deg=bad)

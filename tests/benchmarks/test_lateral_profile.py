@@ -1,0 +1,38 @@
+"""The side-lying profile diagnostics against images and bodies whose answers are known."""
+
+import numpy as np
+import pytest
+
+from benchmarks.bench_lateral_profile import first_rows, repose
+from pressurepose.body import BodyModel
+from pressurepose.body.toy import toy_body_arrays
+from tests.eval.test_realism import _column
+
+
+def test_a_shrug_lifts_the_lower_shoulder_toward_the_head_and_a_flex_moves_the_head_only():
+    """On the toy body standing (z up, the head along +z): raising the lower collar moves that
+    shoulder toward the head and leaves the other alone; flexing moves the head joint forward (-y),
+    nothing below the neck."""
+    body = BodyModel(toy_body_arrays())
+    pose, betas = np.zeros(72), np.zeros(10)
+    _, j0 = body.forward(betas, pose)
+    j = j0[0].copy()
+    j[16, 2] -= 1.0  # call the left shoulder the lower one (only the shoulders' heights are read)
+    _, j2 = body.forward(betas, repose(pose, j, "shrug", 30.0))
+    assert j2[0, 16, 2] > j0[0, 16, 2] + 0.01
+    np.testing.assert_allclose(j2[0, 17], j0[0, 17], atol=1e-12)
+    j[16, 2] += 2.0  # now the right one is lower
+    _, j2 = body.forward(betas, repose(pose, j, "shrug", 30.0))
+    assert j2[0, 17, 2] > j0[0, 17, 2] + 0.01
+    np.testing.assert_allclose(j2[0, 16], j0[0, 16], atol=1e-12)
+    _, j3 = body.forward(betas, repose(pose, j, "flex", 40.0))
+    assert j3[0, 15, 1] < j0[0, 15, 1] - 0.01
+    np.testing.assert_allclose(j3[0, :15], j0[0, :15], atol=1e-12)
+    with pytest.raises(ValueError, match="'shrug' or 'flex'"):
+        repose(pose, j, "twist", 10.0)
+
+
+def test_first_rows_finds_the_head_end_as_recorded():
+    imgs = np.stack([_column(0, 40, 10), _column(7, 40, 20)])
+    imgs[1, 3, 0] = 0.5  # a faint reading above the body is not its head end
+    assert first_rows(imgs).tolist() == [0, 7]
