@@ -40,9 +40,9 @@ def run_demo(args) -> int:
     from pressurepose.sim.simulate import simulate_one
 
     out = check_output_path(args.out, "--out", directory=True)
-    gender = canonical_gender(args.gender)[0]
-    if gender not in ("f", "m"):  # the network's body models are female and male
+    if str(args.gender).lower() not in ("f", "m", "female", "male"):  # the network's body models
         raise BadInput(f"--gender {args.gender!r}: the demo's network estimates female or male bodies; expected f or m")
+    gender = canonical_gender(args.gender)[0]
     partition = get_partition(args.partition).name
     if args.model:  # a bad model, or one for another mat, fails now, not after the simulation
         grid, mat = resolve_model(args.model).config.grid, get_bed().mat
@@ -75,7 +75,7 @@ def run_demo(args) -> int:
         t = _stage("estimate pose and shape (PressureNet)", t)
         mpjpe = 100 * np.linalg.norm(est.joints[0] - true_j[0], axis=-1).mean()
         v2v = 100 * np.linalg.norm(est.vertices[0] - true_v[0], axis=-1).mean()
-        print(f"  error: MPJPE {mpjpe:.1f} cm, vertex-to-vertex {v2v:.1f} cm")
+        print(f"  estimate against the truth: MPJPE {mpjpe:.1f} cm, vertex-to-vertex {v2v:.1f} cm")
     else:
         print(f"  no trained PressureNet at {model}: rebuild it with `python tools/train_shipped_model.py`")
     path = out / "demo.png"
@@ -85,6 +85,8 @@ def run_demo(args) -> int:
 
 
 def _figure(body, bed, image, true_v, true_j, est):
+    """The simulated pressure image (mmHg) and the true body at rest seen from below, through the mat;
+    with an estimate, also its reconstructed map Q (PMR, mm sink) and the estimated body from below."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -104,8 +106,9 @@ def _figure(body, bed, image, true_v, true_j, est):
     axes[1].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5)
     axes[1].set_title("true body at rest\n(seen through the mat)")
     if est is not None:
-        axes[2].imshow(est.q[0], extent=extent, cmap="magma", vmin=0)
+        im = axes[2].imshow(est.q[0], extent=extent, cmap="magma", vmin=0)
         axes[2].set_title("reconstructed map (PMR)")
+        fig.colorbar(im, ax=axes[2], fraction=0.05, label="mm sink")
         draw_mesh(axes[3], est.vertices[0], est.faces, "below", color=(0.95, 0.65, 0.4))
         axes[3].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5, label="true joints")
         axes[3].scatter(est.joints[0, :, 0], -est.joints[0, :, 1], s=8, c="r", zorder=6, label="estimated")

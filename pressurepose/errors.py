@@ -1,4 +1,5 @@
-"""The one error type users see for bad input: it names the input and what was expected."""
+"""The one error type users see for bad input: it names the input and what was expected; and how to
+say which recorded settings differ."""
 
 
 class BadInput(ValueError):
@@ -7,3 +8,18 @@ class BadInput(ValueError):
     The message names the input and says what was expected, e.g.
     ``pressure image has shape (60, 27); the boditrak_bt3510 mat is 64 x 27``.
     """
+
+
+def record_difference(old: dict, new: dict, most: int = 4) -> str:
+    """'settle.timestep_s 0.01 -> 0.02, ...': the first ``most`` settings that differ between two
+    records of settings ({part: {name: value}} or {part: value}), for messages that refuse to mix
+    work done under other settings."""
+    diffs = []
+    for part in sorted(set(old) | set(new)):
+        a, b = old.get(part, {}), new.get(part, {})
+        if not isinstance(a, dict) or not isinstance(b, dict):
+            if a != b:
+                diffs.append(f"{part} {a!r} -> {b!r}")
+            continue
+        diffs += [f"{part}.{k} {a.get(k)!r} -> {b.get(k)!r}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+    return ", ".join(diffs[:most]) + (", ..." if len(diffs) > most else "")

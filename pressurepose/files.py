@@ -197,3 +197,28 @@ def numpy_load_problem(path: str | Path, exc: Exception) -> str:
             return "it holds pickled Python objects, which are not read"
         return "it has no .npy / .npz header (write it with numpy.save / numpy.savez)"
     return str(exc)
+
+
+def load_npz(path: str | Path, what: str, fields=None) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` (all, or those named in ``fields``, which must all be there), read
+    without pickle. Anything else (missing, empty, truncated, corrupt, not an .npz, pickled, lacking
+    a field) is a BadInput naming ``what`` and the file."""
+    import zipfile
+    import zlib
+
+    p = Path(path)
+    try:
+        z = np.load(p, allow_pickle=False)
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise BadInput(f"{what} {str(p)!r} holds one array; expected an .npz of named arrays")
+        with z:
+            missing = [k for k in (fields or ()) if k not in z.files]
+            if missing:
+                raise BadInput(f"{what} {str(p)!r} lacks {', '.join(missing)}")
+            return {k: z[k] for k in (fields or z.files)}
+    except BadInput:
+        raise
+    except (zipfile.BadZipFile, zlib.error) as exc:
+        raise BadInput(f"{what} {str(p)!r} is corrupt ({type(exc).__name__}: {exc})") from None
+    except (OSError, ValueError, EOFError, KeyError) as exc:
+        raise BadInput(f"{what} {str(p)!r} is not a readable .npz ({numpy_load_problem(p, exc)})") from None

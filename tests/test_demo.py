@@ -16,3 +16,9 @@ def test_demo_runs_the_whole_pipeline(tmp_path, capsys):
     assert 0 < mpjpe < 100  # a real, finite error in cm (accuracy is measured in benchmarks/)
     assert (tmp_path / "demo.png").stat().st_size > 20_000
 
+
+
+def test_demo_refuses_a_body_model_its_network_cannot_read(capsys):
+    for gender in ("n", "x"):
+        assert main(["demo", "--out", "unused", "--gender", gender]) == 2
+        assert "expected f or m" in capsys.readouterr().err

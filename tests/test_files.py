@@ -97,3 +97,30 @@ def test_atomic_write_gives_a_plain_file_mode_even_when_the_writer_makes_a_priva
     finally:
         os.umask(mask)
     assert (tmp_path / "w.bin").stat().st_mode & 0o777 == 0o644
+
+
+def test_load_npz_names_the_file_for_every_way_it_can_be_wrong(tmp_path):
+    import numpy as np
+
+    from pressurepose.files import load_npz
+
+    good = tmp_path / "good.npz"
+    np.savez(good, a=np.arange(3), b=np.ones(2))
+    assert set(load_npz(good, "thing")) == {"a", "b"}
+    assert list(load_npz(good, "thing", ("b",))) == ["b"]
+    with pytest.raises(BadInput, match=r"thing '.*good.npz' lacks c"):
+        load_npz(good, "thing", ("a", "c"))
+    data = good.read_bytes()
+    cases = {"half.npz": data[: len(data) // 2], "garbage.npz": b"PK\x03\x04garbage", "text.npz": b"1,2,3\n",
+             "empty.npz": b""}
+    for name, content in cases.items():
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(BadInput, match=rf"thing '.*{name}' is (corrupt|not a readable .npz)"):
+            load_npz(tmp_path / name, "thing")
+    with pytest.raises(BadInput, match="no .npy / .npz header"):
+        load_npz(tmp_path / "text.npz", "thing")
+    np.save(tmp_path / "one.npy", np.zeros(3))
+    with pytest.raises(BadInput, match="holds one array"):
+        load_npz(tmp_path / "one.npy", "thing")
+    with pytest.raises(BadInput, match="missing.npz"):
+        load_npz(tmp_path / "missing.npz", "thing")

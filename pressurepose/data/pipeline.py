@@ -31,7 +31,7 @@ from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, is_set_aside_name,
                                      is_temp_name, set_aside_path, sha256_bytes, shard_name, stage_bytes,
                                      verify_shard)
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, record_difference
 from pressurepose.sim.bed import get_mat
 
 
@@ -218,7 +218,7 @@ def open_output(out: Path, config: GenerationConfig) -> Manifest:
         now = producer_provenance(config)
         if manifest.provenance and now and manifest.provenance != now:
             raise BadInput(f"{out} was begun with other physics or sampler constants "
-                           f"({_provenance_difference(manifest.provenance, now)}); its shards and new ones "
+                           f"({record_difference(manifest.provenance, now)}); its shards and new ones "
                            f"would differ, so nothing was changed. Use another --out")
         return manifest
     strays = sorted(p.name for p in out.glob("shard-*.h5"))
@@ -243,19 +243,6 @@ def producer_provenance(config: GenerationConfig) -> dict:
     from pressurepose.data.physics import provenance
 
     return provenance(config)
-
-
-def _provenance_difference(old: dict, new: dict) -> str:
-    """'settle.timestep_s 0.01 -> 0.02, ...': the first few settings that differ."""
-    diffs = []
-    for part in sorted(set(old) | set(new)):
-        a, b = old.get(part, {}), new.get(part, {})
-        if not isinstance(a, dict) or not isinstance(b, dict):
-            if a != b:
-                diffs.append(f"{part} {a!r} -> {b!r}")
-            continue
-        diffs += [f"{part}.{k} {a.get(k)!r} -> {b.get(k)!r}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
-    return ", ".join(diffs[:4]) + (", ..." if len(diffs) > 4 else "")
 
 
 def check_shards(out: Path, manifest: Manifest, repair: bool = False) -> list[int]:

@@ -90,7 +90,7 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                    help="input taxels above this pressure count as contact for the IoU (default: the model's "
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
-    p.add_argument("--device", default="cpu", help="cpu (default), cuda ...")
+    p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
     from pressurepose.net.commands import add_mirror_argument
 
     add_mirror_argument(p)

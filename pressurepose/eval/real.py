@@ -219,7 +219,8 @@ def format_confusion(conf: dict) -> str:
 
 def gallery_figure(result: dict, count: int = 3):
     """Figure: the ``count`` best and worst estimates by contact IoU, one row each: the model input
-    (mmHg), the reconstructed map Q (PMR) and the estimated body seen from below."""
+    (mmHg), the reconstructed map Q (PMR) and the estimated body seen from below, through the mat, laid
+    out like the images (as in the ``infer`` picture: a supine body shows its back; its titles say so)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -244,7 +245,8 @@ def gallery_figure(result: dict, count: int = 3):
             a.set_yticks([])
         ax[2].add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5"))
         draw_mesh(ax[2], est.vertices[i], est.faces, view="below")
-        ax[2].set_title(f"estimate ({rows['body_model'][i]}): {rows['predicted'][i]}, label {rows['posture'][i]}\n"
+        ax[2].set_title(f"estimate ({rows['body_model'][i]}), from below\n"
+                        f"{rows['predicted'][i]}, label {rows['posture'][i]}\n"
                         f"stature {rows['stature_m'][i]:.2f} m (true {rows['height_m'][i]:.2f})", fontsize=9)
         ax[2].set_xticks([])
         ax[2].set_yticks([])

@@ -97,15 +97,17 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
 
     p = Path(path)
     if p.is_file():
-        try:
-            with np.load(p, allow_pickle=False) as z:
-                need = ("pressure", "force", "pose", "mass")
-                missing = [k for k in need if k not in z.files]
-                if missing:
-                    raise BadInput(f"{p} lacks {', '.join(missing)}; expected a `pressurepose simulate` .npz")
-                arr = {k: z[k] for k in need + (("height",) if "height" in z.files else ())}
-        except (OSError, ValueError) as exc:
-            raise BadInput(f"{p} is not a readable .npz ({exc})") from None
+        from pressurepose.files import load_npz
+
+        arr = load_npz(p, "simulated images (a `pressurepose simulate` .npz)")
+        missing = [k for k in ("pressure", "force", "pose", "mass") if k not in arr]
+        if missing:
+            raise BadInput(f"{p} lacks {', '.join(missing)}; expected a `pressurepose simulate` .npz")
+        pressure = np.asarray(arr["pressure"])
+        if pressure.ndim != 3:
+            raise BadInput(f"{p}: pressure has shape {pressure.shape}; expected (N, rows, cols) images")
+        if not np.all(np.isfinite(pressure)) or np.any(pressure < 0):
+            raise BadInput(f"{p}: pressure holds NaN, infinite or negative values; expected finite mmHg >= 0")
         mat = _mat_for_shape(arr["pressure"].shape[1:], mat_name)
     elif p.is_dir():
         from pressurepose.data.dataset import DatasetReader

@@ -126,14 +126,15 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
                      "betas, pose, joints (JSON and NPZ), meshes and pictures.")
     p.add_argument("pressure_file", metavar="PRESSURE_FILE",
-                   help="pressure image(s), mmHg: .npy ((R, C) or (B, R, C)), .csv (one image) or HDF5 (.h5)")
+                   help="pressure image(s), mmHg: .npy ((R, C) or (B, R, C)), .csv (one image), .npz (a `simulate` "
+                        "output or a training pack) or HDF5 (.h5, a shard of a generated dataset)")
     p.add_argument("--gender", default=None, help="f or m (one for all images, or comma-separated per image); "
-                                                 "may be left out for an HDF5 file with a 'gender' dataset "
-                                                 "(e.g. a shard of a generated dataset)")
+                                                 "may be left out for a file that stores it (a dataset shard, a "
+                                                 "`simulate` .npz, a training pack)")
     p.add_argument("--model", default=None, help="trained model (.json with its .safetensors files, .pt, or a run folder); "
                                                 "default: the shipped model")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--key", default="pressure", help="HDF5 dataset holding the images (default pressure)")
+    p.add_argument("--key", default="pressure", help="HDF5 dataset or .npz array holding the images (default pressure)")
     p.add_argument("--mesh-format", choices=("ply", "obj"), default="ply", help="mesh file format (default ply)")
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
     add_mirror_argument(p)

@@ -132,8 +132,14 @@ def figure(est: Estimate, i: int = 0):
 # ---------------------------------------------------------------------------------------- input
 def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
     """Pressure images from a file: ``.npy`` ((R, C) or (B, R, C)), ``.csv`` (one image, R rows of
-    C comma-separated values) or HDF5 (``.h5`` / ``.hdf5``, dataset ``key``). BadInput otherwise."""
+    C comma-separated values), ``.npz`` (array ``key``: a ``simulate`` output or a training pack) or
+    HDF5 (``.h5`` / ``.hdf5``, dataset ``key``: a dataset shard). BadInput otherwise."""
     path = Path(path)
+    if path.is_dir():
+        shards = sorted(path.glob("shard-*.h5"))
+        hint = f", e.g. {str(shards[0])!r}" if shards else ""
+        raise BadInput(f"pressure file {str(path)!r} is a folder; expected a file (.npy, .csv, .npz or a "
+                       f"dataset shard .h5{hint})")
     if not path.is_file():
         raise BadInput(f"pressure file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
@@ -148,6 +154,13 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
                 arr = np.loadtxt(path, delimiter=",", ndmin=2)
             if arr.size == 0:
                 raise BadInput(f"pressure file {str(path)!r} holds no numbers; expected R rows of C comma-separated values")
+        elif suffix == ".npz":
+            from pressurepose.files import load_npz
+
+            arrays = load_npz(path, "pressure file")
+            if key not in arrays:
+                raise BadInput(f"pressure file {str(path)!r} has no array {key!r} (has: {', '.join(arrays)})")
+            arr = arrays[key]
         elif suffix in (".h5", ".hdf5"):
             import h5py
 
@@ -156,7 +169,7 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
                     raise BadInput(f"HDF5 file {str(path)!r} has no dataset {key!r} (has: {', '.join(f.keys())})")
                 arr = f[key][()]
         else:
-            raise BadInput(f"pressure file {str(path)!r}: expected .npy, .csv, .h5 or .hdf5")
+            raise BadInput(f"pressure file {str(path)!r}: expected .npy, .csv, .npz, .h5 or .hdf5")
     except BadInput:
         raise
     except (ValueError, OSError) as exc:
@@ -166,12 +179,28 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
     return np.asarray(arr, dtype=np.float32)
 
 
-def load_genders(path: str | Path, key: str = "gender") -> list[str]:
-    """Per-image genders stored in an HDF5 file (dataset ``key`` of 'f' / 'm'), e.g. a dataset
-    shard; BadInput when there are none."""
+def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
+    """Genders stored with the images of a file: an HDF5 file's dataset ``key`` of 'f' / 'm' (a
+    dataset shard), or an ``.npz``'s array ``key``: one 'f' / 'm' for all its images (a ``simulate``
+    output) or per-image codes 0 / 1 (a training pack). BadInput when there are none."""
     path = Path(path)
-    if path.suffix.lower() not in (".h5", ".hdf5"):
-        raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 files can carry genders)")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        from pressurepose.data.schema import GENDERS
+        from pressurepose.files import load_npz
+
+        arrays = load_npz(path, "pressure file")
+        if key not in arrays:
+            raise BadInput(f"pressure file {str(path)!r} has no {key!r} array; pass --gender")
+        values = arrays[key]
+        if values.dtype.kind in "iu":
+            if values.size and not (0 <= values.min() and values.max() < len(GENDERS)):
+                raise BadInput(f"pressure file {str(path)!r}: gender codes {sorted(set(values.tolist()))} are not "
+                               f"indices into {GENDERS}; pass --gender")
+            return [GENDERS[int(v)] for v in np.atleast_1d(values)]
+        return str(values) if values.ndim == 0 else [str(v) for v in values]
+    if suffix not in (".h5", ".hdf5"):
+        raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 and .npz files can carry genders)")
     import h5py
 
     with h5py.File(path, "r") as f:

@@ -41,7 +41,7 @@ import numpy as np
 import torch
 
 from pressurepose.body.model import BodyModel
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, record_difference
 from pressurepose.files import atomic_write, write_text_atomic
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.cnn import CNN_VARIANTS
@@ -415,7 +415,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     if record is not None and not isinstance(record, dict):
         raise BadInput(f"{state_path} is not a training state; use another --out")
     if record is not None and _with_defaults(record.get("identity")) != identity:
-        raise BadInput(f"{out_dir} holds a training run with a different config, body model or data; "
+        old = _with_defaults(record.get("identity"))
+        what = record_difference(old, identity) if isinstance(old, dict) else "an unreadable record"
+        raise BadInput(f"{out_dir} holds a training run with a different config, body model or data ({what}); "
                        f"use another output folder (nothing was overwritten)")
     if record is not None and record.get("stage") == 2:
         ran = sum(1 for r in record.get("history", []) if isinstance(r, dict) and r.get("stage") == 1)

@@ -159,12 +159,9 @@ def resting_bodies(source, bed: BedSpec, per_posture: int = 4,
         a = DatasetReader(p).load_arrays(fields, label_dtype=np.float64)
         genders = np.array(GENDERS)[a["gender"]]
     elif p.is_file():
-        try:
-            with np.load(p, allow_pickle=False) as z:
-                a = {k: z[k] for k in fields + ("gender",)}
-        except (OSError, ValueError, KeyError) as exc:
-            raise BadInput(f"{p} is not a `pressurepose simulate` .npz with {', '.join(fields)}, gender "
-                           f"({exc})") from None
+        from pressurepose.files import load_npz
+
+        a = load_npz(p, "settled bodies (a `pressurepose simulate` .npz)", fields + ("gender",))
         genders = np.full(len(a["mass"]), str(a["gender"]))
     else:
         raise BadInput(f"settled bodies {str(p)!r} do not exist; expected a dataset directory or a simulate .npz")

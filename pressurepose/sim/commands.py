@@ -36,7 +36,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
                    help="--targets real: the bed to start from and the bodies' bed (a calibrate --out file) "
                         "[the mat preset's default bed]")
     p.add_argument("--mat", default=None,
-                   help="mat preset for --targets (boditrak_bt3510, slp, tip) [boditrak_bt3510]; --data uses its own mat")
+                   help="mat preset for --targets (boditrak_bt3510, slp, tip, fsa_softflex_2048) [boditrak_bt3510]; "
+                        "--data uses its own mat")
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
@@ -88,7 +89,8 @@ def run_calibrate(args) -> int:
     if args.data:
         data = load_measurements(args.data)
         bed = BedSpec(mat=data.mat)
-        res = cal.calibrate(data, bed, fit=fit or ("stiffness", "spread", "c0", "c1", "c2"), **common)
+        fit = fit or ("stiffness", "spread", "c0", "c1", "c2")
+        res = cal.calibrate(data, bed, fit=fit, **common)
         source = {"data": str(Path(args.data).resolve()), "objects": len(data)}
     else:
         from pressurepose.body import BodyModel
@@ -96,8 +98,8 @@ def run_calibrate(args) -> int:
         bed = get_bed(args.mat or DEFAULT_MAT)
         body = BodyModel(args.body)
         verts, faces, _ = cal.supine_body_mesh(body, bed)
-        res = cal.calibrate_targets(verts, faces, cal.DEFAULT_TARGETS, bed, fit=fit or ("stiffness", "spread"),
-                                    **common)
+        fit = fit or ("stiffness", "spread")
+        res = cal.calibrate_targets(verts, faces, cal.DEFAULT_TARGETS, bed, fit=fit, **common)
         t = cal.DEFAULT_TARGETS
         source = {"targets": {"max_sink_m": t.max_sink_m, "peak_mmhg": t.peak_mmhg, "mass_kg": t.mass_kg,
                               "sources": list(t.sources)}, "body": repr(body)}
@@ -105,13 +107,14 @@ def run_calibrate(args) -> int:
         raise BadInput(f"the fit found no bed it could simulate (best loss {res.loss:.3g} is the penalty "
                        f"{cal.PENALTY:g} for a failed press or a sensor out of range); nothing was written. "
                        f"Check that the objects lie on the mat and their masses and images are right")
-    record = {"bed": res.bed.to_dict(), "loss": res.loss, "fitted": res.fitted, "evaluations": res.evaluations,
+    record = {"bed": res.bed.to_dict(), "loss": res.loss, "fit": list(fit), "fitted": res.fitted,
+              "evaluations": res.evaluations,
               "generations": res.generations, "stop": {k: str(v) for k, v in res.stop.items()},
               "popsize": args.popsize, "seed": args.seed, "source": source,
               "seconds": round(time.perf_counter() - t0, 1)}
     write_json_atomic(args.out, record, indent=2)
     print(f"loss {res.loss:.5f} after {res.evaluations} evaluations; fitted " +
-          ", ".join(f"{k}={v:.6g}" for k, v in res.fitted.items()))
+          ", ".join(f"{k}={res.fitted[k]:.6g}" for k in fit) + " (the bed's other constants unchanged)")
     print(f"wrote {args.out}")
     if args.plot:
         if args.data:
@@ -198,8 +201,9 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bed", default=None, metavar="JSON",
                    help="the bed to lie on: a `pressurepose calibrate --out` file or a BedSpec.to_dict record "
                         "[the mat preset's default bed]")
-    p.add_argument("--out", required=True, help="output .npz: pressure, force, depth, contact, betas, pose, "
-                                                "transl, joints, mass, height, and rejection counts")
+    p.add_argument("--out", required=True, help="output .npz (docs/data.md): pressure, force, depth, contact, betas, "
+                                                "pose, transl, joints, mass, height and wedge per body; gender, "
+                                                "partition and the rejection counts")
     p.add_argument("--plot", default=None, help="PNG: each pressure image beside the body at rest, seen from the side")
 
 
@@ -230,20 +234,20 @@ def _resume(partial, run_key: str, count: int):
     from collections import Counter
 
     from pressurepose.errors import BadInput
+    from pressurepose.files import load_npz
 
     if not partial.exists():
         return [], Counter()
-    try:
-        with np.load(partial, allow_pickle=False) as z:
-            if str(z["run_key"]) != run_key:
-                raise BadInput(f"{partial} holds bodies of another simulate command; remove it or use another --out")
-            n = min(len(z["pressure"]), count)
-            done = [{**{k: z[k][i] for k in SIM_FIELDS},
-                     "wedge": z["wedge"][i] if "wedge" in z.files else NO_WEDGE}
-                    for i in range(n)]
-            rejected = Counter(dict(zip(map(str, z["rejection_causes"]), map(int, z["rejection_counts"]))))
-    except (OSError, ValueError, KeyError, EOFError) as exc:
-        raise BadInput(f"{partial} (bodies of an interrupted run) is unreadable ({exc}); remove it") from None
+    z = load_npz(partial, "bodies of an interrupted run (remove the file to start again)")
+    if "run_key" in z and str(z["run_key"]) != run_key:
+        raise BadInput(f"{partial} holds bodies of another simulate command; remove it or use another --out")
+    missing = [k for k in ("run_key", "pressure", "rejection_causes", "rejection_counts", *SIM_FIELDS) if k not in z]
+    if missing:
+        raise BadInput(f"{partial} (bodies of an interrupted run) lacks {', '.join(missing)}; remove it to start again")
+    n = min(len(z["pressure"]), count)
+    done = [{**{k: z[k][i] for k in SIM_FIELDS}, "wedge": z["wedge"][i] if "wedge" in z else NO_WEDGE}
+            for i in range(n)]
+    rejected = Counter(dict(zip(map(str, z["rejection_causes"]), map(int, z["rejection_counts"]))))
     return done, rejected
 
 
@@ -320,6 +324,9 @@ def _draw_wedge_side(ax, wedge) -> None:
 
 
 def _plot_simulated(body, bed, done):
+    """One row per body: its pressure image on the mat (x across the bed, -y along it, metres, as in
+    the ``demo`` picture; one colour scale for all rows, its mmHg bar on top) and the body at rest seen
+    from the side."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -329,13 +336,16 @@ def _plot_simulated(body, bed, done):
     from pressurepose.viz.mesh import draw_mesh
 
     mat = bed.mat
-    extent = [0, mat.cols * mat.pitch_col_m, mat.rows * mat.pitch_row_m, 0]
+    extent = [0, mat.cols * mat.pitch_col_m, -mat.rows * mat.pitch_row_m, 0]  # row 0 (head end) at -y = 0
+    vmax = max(max(float(s["pressure"].max()) for s in done), 1e-6)
     n = len(done)
-    fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False)
+    fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False,
+                             layout="constrained")
     for (a_img, a_side), s in zip(axes, done):
-        im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0)
+        im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax)
         a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
-        fig.colorbar(im, ax=a_img, fraction=0.06, label="mmHg")
+        a_img.set_xlabel("x across the bed (m)")
+        a_img.set_ylabel("-y along the bed (m)")
         verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
         draw_mesh(a_side, verts[0], body.faces, "bed_side")
         wedge = Wedge.from_array(s["wedge"])
@@ -344,5 +354,5 @@ def _plot_simulated(body, bed, done):
         a_side.axhline(0.0, color="0.4", lw=1)
         a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
         a_side.set_xlabel("y along the bed (m)")
-    fig.tight_layout()
+    fig.colorbar(im, ax=axes[:, 0], location="top", aspect=15, label="pressure (mmHg)")
     return fig

@@ -146,6 +146,16 @@ def test_realism_verb_end_to_end(tmp_path):
     prof = sup["profile"]
     assert prof["band"] == R.PROFILE_BAND and len(prof["real"]) == len(prof["simulated"]) == 14
     assert 0 < sum(prof["simulated"]) <= 100 + 1e-9
+    # a corrupt or NaN-holding .npz: a clear error naming it, no traceback
+    (tmp_path / "half.npz").write_bytes((tmp_path / "sim.npz").read_bytes()[:500])
+    np.savez(tmp_path / "nan.npz", pressure=np.full((1, 64, 27), np.nan), force=force[:1], pose=pose[:1],
+             mass=np.ones(1))
+    for bad, says in (("half.npz", "is corrupt|not a readable .npz"), ("nan.npz", "nan.npz: pressure holds NaN")):
+        with pytest.raises(BadInput, match=says):
+            from pressurepose.eval.realism_report import load_synthetic
+            load_synthetic(tmp_path / bad)
+        assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / bad),
+                     "--out", str(out)]) == 2
     # only the wedge postures: this folder has none
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "sim.npz"),
                  "--out", str(out), "--only-wedge"]) == 2

@@ -86,6 +86,18 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
     assert main(["infer", str(tmp_path / "d.h5"), "--key", "images", "--model", str(model_path),
                  "--out", str(tmp_path / "c")]) == 0  # genders from the file
+    # a `simulate` .npz (one gender for the file) and a training pack (gender codes) carry their genders
+    np.savez(tmp_path / "sim.npz", pressure=img, gender=np.array("m"))
+    np.savez(tmp_path / "pack.npz", pressure=img, gender=np.array([1, 0]))
+    for name, genders in (("sim.npz", ["m", "m"]), ("pack.npz", ["m", "f"])):
+        assert main(["infer", str(tmp_path / name), "--model", str(model_path), "--out", str(tmp_path / name[:-4]),
+                     "--max-figures", "0"]) == 0
+        got = json.loads((tmp_path / name[:-4] / "estimate.json").read_text())["estimates"]
+        assert [r["gender"] for r in got] == genders
+        if name == "sim.npz":  # image 1 read as "m", as in the .npy run
+            np.testing.assert_allclose(got[1]["joints"], rec[1]["joints"], atol=1e-5)
+    with pytest.raises(BadInput, match="is a folder; expected a file"):
+        load_pressure(tmp_path / "a")
     assert [r["gender"] for r in json.loads((tmp_path / "c" / "estimate.json").read_text())["estimates"]] == ["m", "f"]
     # one image into the folder of two: the second image's mesh and picture do not stay behind
     (tmp_path / "a" / "notes.txt").write_text("mine")

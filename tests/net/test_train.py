@@ -66,7 +66,7 @@ def test_interrupted_run_resumes_to_the_same_result(tmp_path, monkeypatch):
     assert len(list(csv.DictReader(open(tmp_path / "cut" / "log.csv")))) == 4
     # a different config in the same folder is refused, nothing overwritten
     before = (tmp_path / "cut" / "state.json").read_text()
-    with pytest.raises(BadInput, match="different config"):
+    with pytest.raises(BadInput, match=r"different config.*train\.lr 0\.0001 -> 0\.0002"):
         train(data, tmp_path / "cut", TrainConfig(epochs_mod1=2, epochs_mod2=2, batch_size=4, lr=2e-4),
               bodies=(body, body), grid=GRID)
     assert (tmp_path / "cut" / "state.json").read_text() == before

@@ -144,6 +144,10 @@ def test_bodies_matched_by_extent(tmp_path):
     assert len(matched) == 1 and np.allclose(matched[0].cores.ends, expect.ends)
     with pytest.raises(BadInput, match="27"):
         C.resting_bodies(out, get_bed("slp"), per_posture=1, match={"supine": np.ones(3)})
+    half = tmp_path / "half.npz"
+    half.write_bytes(out.read_bytes()[:1000])
+    with pytest.raises(BadInput, match=r"settled bodies .*half.npz' is (corrupt|not a readable)"):
+        C.resting_bodies(half, get_bed(), per_posture=1)
 
 
 def test_bone_fractions_are_fitted_against_people_only(tmp_path):

@@ -251,7 +251,7 @@ def convert_synthetic(path: str | Path, out: str | Path, *, body=None, partition
     gender = gender or guess.get("gender")
     if partition is None or gender is None:
         what = "partition" if partition is None else "gender"
-        raise BadInput(f"{path}: cannot tell the {what} from the file name; give it "
+        raise BadInput(f"{path}: cannot tell the {what} from the file name; give it with --{what} "
                        f"({', '.join(PARTITIONS) if what == 'partition' else 'f or m'})")
     partition, gender = check_partition(partition), check_gender(gender)
     plo = guess["limbs_on_bed"] if limbs_on_bed is None else bool(limbs_on_bed)
