@@ -65,8 +65,9 @@ def real_first_rows(folder) -> np.ndarray:
 def _compose(pose: np.ndarray, joint: int, rotvec) -> None:
     from scipy.spatial.transform import Rotation
 
-    r = Rotation.from_rotvec(np.asarray(rotvec, dtype=np.float64)) * Rotation.from_rotvec(pose[3 * joint: 3 * joint + 3])
-    pose[3 * joint: 3 * joint + 3] = r.as_rotvec()
+    own = slice(3 * joint, 3 * joint + 3)
+    turn = Rotation.from_rotvec(np.asarray(rotvec, dtype=np.float64))
+    pose[own] = (turn * Rotation.from_rotvec(pose[own])).as_rotvec()
 
 
 def repose(pose, joints, how: str, deg: float) -> np.ndarray:
@@ -219,15 +220,16 @@ def main(argv=None) -> int:
                      + " | ".join(f"{c[k]:.1f}" for _, c in columns) + " |")
 
     # 2. re-posed rests
-    real_lat = 100 * np.nanmean(R.region_shares(real.pressure[real.posture == "lateral"], mat), 0)
+    side = real.posture == "lateral"
+    real_lat = 100 * np.nanmean(R.region_shares(real.pressure[side], mat), 0)
+    real_band = np.nanmean(R.load_profile(real.pressure[side], mat, real.height[side])[:, 2:4].sum(1))
     variants = [(None, 0.0)] + list(REPOSED)
     rep, rep_h = repressed(lateral, variants)
     lines += ["", "**2. The same side-lying rests re-posed and pressed again** (no settling; region shares, % of the "
               "load; worst gap: the largest difference from the real shares):", "",
               "| rest | " + " | ".join(R.REGIONS) + " | worst gap (pp) | load 10-20 % below the head end |",
               "|---|" + "---|" * (len(R.REGIONS) + 2),
-              "| real | " + " | ".join(f"{x:.1f}" for x in real_lat) + f" | | "
-              f"{np.nanmean(R.load_profile(real.pressure[real.posture == 'lateral'], mat, real.height[real.posture == 'lateral'])[:, 2:4].sum(1)):.1f} |"]
+              "| real | " + " | ".join(f"{x:.1f}" for x in real_lat) + f" | | {real_band:.1f} |"]
     names = {None: "as settled", "shrug": "lower collar raised {:g} deg", "flex": "neck and head flexed {:g} deg"}
     for v in variants:
         shares = 100 * np.nanmean(R.region_shares(rep[v], mat), 0)
@@ -239,7 +241,8 @@ def main(argv=None) -> int:
     # 3. settled with the neck flexed
     first = np.array([int(s) in subject_range("1-7") for s in real.subject])
     groups = (("all", real), ("1-7", subset(real, first)), ("8-13", subset(real, ~first)))
-    lines += ["", "**3. Settled with the neck's springs resting flexed** (`SettleConfig(lateral_neck_flexion_deg=...)`, "
+    lines += ["", "**3. Settled with the neck's springs resting flexed** "
+              "(`SettleConfig(lateral_neck_flexion_deg=...)`, "
               "bodies drawn on their side; the same draws as the default's, so the bodies differ only where "
               "an attempt's outcome does). Worst share gap in pp (90 % interval, real images resampled by person) "
               "against PMD-I's people 1-13, 1-7 and 8-13; head imprint rate by the image rule (real 0.96) and "
@@ -259,9 +262,11 @@ def main(argv=None) -> int:
                 lo, hi = h["share_worst_pp_interval"]
                 cells.append(f"{h['share_worst_pp']:.1f} ({lo:.1f}-{hi:.1f})")
             cost = f"{att / acc:.2f} | {cpu / acc:.2f}"
-            lines.append(f"| {deg:g} deg{' (default)' if deg == 0 else ''} | {'like postures' if match else 'as drawn'} | "
+            name = f"{deg:g} deg{' (default)' if deg == 0 else ''}"
+            lines.append(f"| {name} | {'like postures' if match else 'as drawn'} | "
                          f"{100 * first_h['share_sim']['shoulders']:.1f} | {100 * first_h['share_sim']['back']:.1f} | "
-                         + " | ".join(cells) + f" | {first_h['head_sim']:.2f} / {touch:.2f} | {first_h['area_ratio']:.2f} | {cost} |")
+                         + " | ".join(cells)
+                         + f" | {first_h['head_sim']:.2f} / {touch:.2f} | {first_h['area_ratio']:.2f} | {cost} |")
     text = "\n".join(lines)
     print(text)
     if not args.no_write:

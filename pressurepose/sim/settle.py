@@ -70,8 +70,9 @@ from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sin
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
 from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex,
-                                      RagdollParams, add_ragdoll, flexed_neck_home, limit_torques, local_to_smpl, pose_to_qpos,
-                                      quat_to_rotvec, qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
+                                      RagdollParams, add_ragdoll, flexed_neck_home, limit_torques, local_to_smpl,
+                                      pose_to_qpos, quat_to_rotvec, qpos_to_pose, ragdoll_params, rotation_to_quat,
+                                      write_params)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
             "support_overlap")
@@ -120,7 +121,8 @@ class SettleConfig:
         neck's and head's springs rest flexed forward by this many degrees in all (0, the default:
         the home pose's straight neck for every body). An option for side-lying realism studies
         (docs/sim_to_real.md, session 18), not a default: it moves the loaded shoulder of
-        simulated side-lying images toward the real ones', and costs head imprints.
+        simulated side-lying images toward the real ones', and the image-only head-imprint rule
+        then misses more heads.
     """
 
     timestep_s: float = 0.01
