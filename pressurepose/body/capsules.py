@@ -48,7 +48,7 @@ import numpy as np
 from pressurepose.body import lbs_numpy
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem, save_npz_atomic
+from pressurepose.files import load_npz, save_npz_atomic
 
 CAPSULE_NAMES: tuple[str, ...] = (
     "pelvis", "left_thigh", "right_thigh", "spine", "left_calf", "right_calf", "spine1", "left_foot",
@@ -264,12 +264,7 @@ def regressor_path(gender: str) -> Path:
 def load_regressors(path: str | Path) -> CapsuleRegressors:
     """Read a regressor ``.npz`` (ours or SMPLify's); BadInput if it is not one."""
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as e:
-        raise BadInput(f"capsule regressor file {str(path)!r} cannot be read as .npz "
-                       f"({numpy_load_problem(path, e)})") from None
+    data = load_npz(path, "capsule regressor file")
     for key in ("betas2lens", "betas2rads"):
         if key not in data:
             raise BadInput(f"capsule regressor file {str(path)!r} has no {key!r} array")

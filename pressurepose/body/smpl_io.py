@@ -24,15 +24,13 @@ from __future__ import annotations
 
 import io
 import pickle
-import zipfile
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem, save_npz_atomic
+from pressurepose.files import load_npz, save_npz_atomic
 
 REQUIRED_KEYS = ("v_template", "shapedirs", "posedirs", "J_regressor", "weights", "kintree_table", "f")
 
@@ -287,11 +285,7 @@ def load_body_arrays(path: str | Path) -> SmplArrays:
         raise BadInput(f"body model file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                raw = {k: z[k] for k in z.files}
-        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
-            raise BadInput(f"body model {str(path)!r}: not a readable .npz ({numpy_load_problem(path, exc)})") from None
+        raw = load_npz(path, "body model")
     elif suffix in (".pkl", ".pickle"):
         with path.open("rb") as fh:
             raw = safe_pickle_load(fh, what=f"body model {str(path)!r}")

@@ -77,18 +77,9 @@ def save_pack(data: LoadedData, path: str | Path) -> None:
 
 def _load_pack(path: Path, limit: int | None) -> LoadedData:
     """A training pack written by :func:`save_pack`; BadInput naming the file for anything else."""
-    import zipfile
-    import zlib
+    from pressurepose.files import load_npz
 
-    from pressurepose.files import numpy_load_problem
-
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (ValueError, OSError, EOFError, KeyError) as exc:  # KeyError/zipfile errors: a truncated file
-        raise BadInput(f"training pack {path} is not readable ({numpy_load_problem(path, exc)})") from None
-    except (zipfile.BadZipFile, zlib.error) as exc:  # a corrupt archive or member
-        raise BadInput(f"training pack {path} is corrupt ({type(exc).__name__}: {exc})") from None
+    arrays = load_npz(path, "training pack")
     need = ("format", "mat", "grid", "partition_names", *FIELDS, "gender", "partition")
     missing = [k for k in need if k not in arrays]
     if missing or str(arrays.get("format")) != PACK_FORMAT:

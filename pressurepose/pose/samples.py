@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem, save_npz_atomic
+from pressurepose.files import load_npz, save_npz_atomic
 
 # rejection causes: limb candidates (see pressurepose.pose.sampler), then whole poses
 LIMB_CAUSES = ("height", "bin", "into_bed", "off_mattress", "not_behind_head", "limb_collision")
@@ -84,11 +84,7 @@ class SampleBatch:
 
 def load_samples(path) -> SampleBatch:
     """Read a file written by :meth:`SampleBatch.save`; BadInput if it is not one."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            d = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as exc:
-        raise BadInput(f"sample file {str(path)!r} cannot be read as .npz ({numpy_load_problem(path, exc)})") from None
+    d = load_npz(path, "sample file")
     need = [f.name for f in fields(SampleBatch)] + ["counters"]
     missing = [k for k in need if k not in d]
     if missing:

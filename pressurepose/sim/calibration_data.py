@@ -26,14 +26,13 @@ sink_m             (J,) float          depth of the object's lowest point below 
 
 from __future__ import annotations
 
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem, save_npz_atomic
+from pressurepose.files import load_npz, save_npz_atomic
 from pressurepose.sim.bed import MatSpec
 
 FORMAT = "pressurepose-calibration"
@@ -105,12 +104,7 @@ def load_measurements(path: str | Path) -> CapsuleMeasurements:
     p = Path(path)
     if not p.is_file():
         raise BadInput(f"calibration data {str(p)!r} does not exist")
-    try:
-        with np.load(p, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise BadInput(f"calibration data {str(p)!r} is not a readable .npz file "
-                       f"({numpy_load_problem(p, exc)})") from None
+    arrays = load_npz(p, "calibration data")
     need = ["format", "version", "mat_name", "mat_shape", "mat_pitch_m", "max_mmhg", "radius_m", "length_m",
             "mass_kg", "center_xy_m", "yaw_rad", "pressure_mmhg", "sink_m"]
     missing = [k for k in need if k not in arrays]
