@@ -39,7 +39,10 @@ from benchmarks.bench_people_fit import subject_range
 from benchmarks.bench_spine import simulate_set, subset
 from benchmarks.results import write_section
 
-REPOSED = (("shrug", 20.0), ("shrug", 35.0), ("flex", 20.0), ("flex", 40.0), ("flex", 60.0))
+REPOSED = (("shrug", 20.0), ("shrug", 35.0), ("tilt", 20.0), ("tilt", 40.0), ("flex", 20.0), ("flex", 40.0),
+           ("flex", 60.0))
+HEAD_BAND = 0.11                 # the head's load: within this fraction of the stature below the head end
+SHOULDER_BAND = (0.08, 0.35)     # where the shoulder's peak row is looked for, fraction of the stature
 SETTLED_FLEXION = (0.0, 40.0, 60.0)  # 0: the default settle, the same draws (its CPU measured alike)
 COLLARS, SHOULDERS, NECK_HEAD = (13, 14), (16, 17), (12, 15)  # SMPL joint indices
 
@@ -73,22 +76,47 @@ def _compose(pose: np.ndarray, joint: int, rotvec) -> None:
 def repose(pose, joints, how: str, deg: float) -> np.ndarray:
     """A copy of the SMPL pose (72,) of a body whose joints (24, 3) lie in the bed frame (z up),
     re-posed: ``shrug`` raises the lower collar by ``deg`` toward the head (SMPL z: + raises the
-    left shoulder, - the right); ``flex`` flexes the neck and head forward by ``deg`` in all, half
-    at each (SMPL x)."""
+    left shoulder, - the right); ``tilt`` bends the neck and head sideways toward the lower shoulder
+    by ``deg`` in all, half at each (SMPL z: + toward the right); ``flex`` flexes them forward
+    (SMPL x)."""
     p = np.array(pose, dtype=np.float64, copy=True).reshape(-1)
     j = np.asarray(joints, dtype=np.float64)
     if p.shape != (72,) or j.shape != (24, 3):
         raise ValueError(f"pose {p.shape} and joints {j.shape}: expected (72,) and (24, 3)")
     a = np.radians(deg)
+    left_lower = j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2]
     if how == "shrug":
-        left_lower = j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2]
         _compose(p, COLLARS[0] if left_lower else COLLARS[1], [0.0, 0.0, a if left_lower else -a])
-    elif how == "flex":
+    elif how in ("tilt", "flex"):
+        turn = [a / 2, 0.0, 0.0] if how == "flex" else [0.0, 0.0, -a / 2 if left_lower else a / 2]
         for k in NECK_HEAD:
-            _compose(p, k, [a / 2, 0.0, 0.0])
+            _compose(p, k, turn)
     else:
-        raise ValueError(f"repose how={how!r}: expected 'shrug' or 'flex'")
+        raise ValueError(f"repose how={how!r}: expected 'shrug', 'tilt' or 'flex'")
     return p
+
+
+def head_to_shoulder(images, mat, heights) -> np.ndarray:
+    """(N, 3) per image (N, rows, cols) of people ``heights`` (N,) m tall, as fractions of the
+    stature below the head end of the contact: the head's load centroid (the rows within
+    :data:`HEAD_BAND`), the shoulder's peak row (the most loaded row within :data:`SHOULDER_BAND`)
+    and the gap between them; NaN rows for images without a head load."""
+    from pressurepose.eval import realism as R
+
+    p = np.asarray(images, dtype=np.float64)
+    h = np.asarray(heights, dtype=np.float64).reshape(-1)
+    ext = R.body_extent(p, mat)
+    below = ((np.arange(p.shape[1]) + 0.5)[None] - ext[:, :1]) * mat.pitch_row_m / h[:, None]
+    out = np.full((len(p), 3), np.nan)
+    for i, rows in enumerate(p.sum(2)):
+        head = (below[i] >= 0) & (below[i] < HEAD_BAND)
+        band = (below[i] >= SHOULDER_BAND[0]) & (below[i] < SHOULDER_BAND[1])
+        if rows[head].sum() <= 0 or not band.any():
+            continue
+        centroid = (rows[head] * below[i, head]).sum() / rows[head].sum()
+        peak = below[i, band][np.argmax(rows[band])]
+        out[i] = centroid, peak, peak - centroid
+    return out
 
 
 def repressed(paths, variants) -> tuple[dict, np.ndarray]:
@@ -218,24 +246,37 @@ def main(argv=None) -> int:
     for k in range(len(columns[0][1])):
         lines.append(f"| {100 * R.PROFILE_BAND * k:.0f}-{100 * R.PROFILE_BAND * (k + 1):.0f} % | "
                      + " | ".join(f"{c[k]:.1f}" for _, c in columns) + " |")
+    lines += ["", "From the head to the shoulder (medians, fractions of the stature below the head end: the head's "
+              "load centroid, the most loaded row 0.08-0.35 below it, and the gap):", "",
+              "| images | head centroid | shoulder peak | gap |", "|---|---|---|---|"]
+    for name, st, posture in (("real side-lying", real, "lateral"), ("simulated side-lying", sim_lat, "lateral"),
+                              ("simulated side-lying, neck flexed 40 deg", sim_flex[40.0], "lateral"),
+                              ("real supine", real, "supine"), ("simulated supine", sim_sup, "supine")):
+        keep = st.posture == posture
+        hs = np.nanmedian(head_to_shoulder(st.pressure[keep], mat, st.height[keep]), 0)
+        lines.append(f"| {name} | {hs[0]:.3f} | {hs[1]:.3f} | {hs[2]:.3f} |")
 
     # 2. re-posed rests
     side = real.posture == "lateral"
     real_lat = 100 * np.nanmean(R.region_shares(real.pressure[side], mat), 0)
     real_band = np.nanmean(R.load_profile(real.pressure[side], mat, real.height[side])[:, 2:4].sum(1))
+    real_gap = np.nanmedian(head_to_shoulder(real.pressure[side], mat, real.height[side])[:, 2])
     variants = [(None, 0.0)] + list(REPOSED)
     rep, rep_h = repressed(lateral, variants)
     lines += ["", "**2. The same side-lying rests re-posed and pressed again** (no settling; region shares, % of the "
               "load; worst gap: the largest difference from the real shares):", "",
-              "| rest | " + " | ".join(R.REGIONS) + " | worst gap (pp) | load 10-20 % below the head end |",
-              "|---|" + "---|" * (len(R.REGIONS) + 2),
-              "| real | " + " | ".join(f"{x:.1f}" for x in real_lat) + f" | | {real_band:.1f} |"]
-    names = {None: "as settled", "shrug": "lower collar raised {:g} deg", "flex": "neck and head flexed {:g} deg"}
+              "| rest | " + " | ".join(R.REGIONS) + " | worst gap (pp) | load 10-20 % below the head end | "
+              "head to shoulder peak |",
+              "|---|" + "---|" * (len(R.REGIONS) + 3),
+              "| real | " + " | ".join(f"{x:.1f}" for x in real_lat) + f" | | {real_band:.1f} | {real_gap:.3f} |"]
+    names = {None: "as settled", "shrug": "lower collar raised {:g} deg",
+             "tilt": "neck and head bent {:g} deg toward the lower shoulder", "flex": "neck and head flexed {:g} deg"}
     for v in variants:
         shares = 100 * np.nanmean(R.region_shares(rep[v], mat), 0)
         band = np.nanmean(R.load_profile(rep[v], mat, rep_h)[:, 2:4].sum(1))
+        gap = np.nanmedian(head_to_shoulder(rep[v], mat, rep_h)[:, 2])
         lines.append(f"| {names[v[0]].format(v[1])} | " + " | ".join(f"{x:.1f}" for x in shares)
-                     + f" | {np.max(np.abs(shares - real_lat)):.1f} | {band:.1f} |")
+                     + f" | {np.max(np.abs(shares - real_lat)):.1f} | {band:.1f} | {gap:.3f} |")
     lines.append(f"\n({len(rep_h)} side-lying bodies, each pressed with every rest.)")
 
     # 3. settled with the neck flexed

@@ -28,7 +28,7 @@ def test_a_shrug_lifts_the_lower_shoulder_toward_the_head_and_a_flex_moves_the_h
     _, j3 = body.forward(betas, repose(pose, j, "flex", 40.0))
     assert j3[0, 15, 1] < j0[0, 15, 1] - 0.01
     np.testing.assert_allclose(j3[0, :15], j0[0, :15], atol=1e-12)
-    with pytest.raises(ValueError, match="'shrug' or 'flex'"):
+    with pytest.raises(ValueError, match="'shrug', 'tilt' or 'flex'"):
         repose(pose, j, "twist", 10.0)
 
 
@@ -36,3 +36,27 @@ def test_first_rows_finds_the_head_end_as_recorded():
     imgs = np.stack([_column(0, 40, 10), _column(7, 40, 20)])
     imgs[1, 3, 0] = 0.5  # a faint reading above the body is not its head end
     assert first_rows(imgs).tolist() == [0, 7]
+
+
+def test_head_to_shoulder_finds_the_head_centroid_and_the_shoulder_peak():
+    from benchmarks.bench_lateral_profile import head_to_shoulder
+    from pressurepose.sim.bed import get_mat
+
+    mat = get_mat("boditrak_bt3510")
+    height = mat.rows * mat.pitch_row_m  # a row is 1/64 of the stature
+    img = _column(11, 43, 4 + 13)  # the body from row 11, its heavy row 13 rows below the head end
+    img[4:7, 12:15] = 20.0  # a head of three rows from row 4, centred 1.5 rows below the head end; a neck gap
+    hs = head_to_shoulder(img[None], mat, [height])[0]
+    np.testing.assert_allclose(hs, [1.5 / 64, 13.5 / 64, 12 / 64])
+    assert np.isnan(head_to_shoulder(np.zeros((1, mat.rows, mat.cols)), mat, [height])).all()
+
+
+def test_a_tilt_bends_the_head_toward_the_lower_shoulder():
+    body = BodyModel(toy_body_arrays())
+    pose, betas = np.zeros(72), np.zeros(10)
+    _, j0 = body.forward(betas, pose)
+    j = j0[0].copy()
+    j[16, 2] -= 1.0  # the left shoulder is the lower one: the head bends toward the left (+x)
+    _, j2 = body.forward(betas, repose(pose, j, "tilt", 40.0))
+    assert j2[0, 15, 0] > j0[0, 15, 0] + 0.01
+    np.testing.assert_allclose(j2[0, :12], j0[0, :12], atol=1e-12)
