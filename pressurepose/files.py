@@ -214,7 +214,7 @@ def load_npz(path: str | Path, what: str, fields=None) -> dict[str, np.ndarray]:
         with z:
             missing = [k for k in (fields or ()) if k not in z.files]
             if missing:
-                raise BadInput(f"{what} {str(p)!r} lacks {', '.join(missing)}")
+                raise BadInput(f"{what} {str(p)!r} lacks {', '.join(missing)} (has: {', '.join(z.files)})")
             return {k: z[k] for k in (fields or z.files)}
     except BadInput:
         raise

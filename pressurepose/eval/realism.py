@@ -212,14 +212,19 @@ def load_profile(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE
         raise BadInput(f"profile band {band!r} and reach {reach!r}: expected 0 < band < reach <= 1.5")
     edges = np.linspace(0.0, band * round(reach / band), round(reach / band) + 1)
     ext = body_extent(p, mat, rule, head)
-    centres = np.arange(p.shape[1]) + 0.5
-    out = np.full((len(p), len(edges) - 1), np.nan)
-    for i in range(len(p)):
-        load = p[i].sum(1)
-        if not np.isfinite(ext[i, 0]) or load.sum() <= 0:
-            continue
-        below = (centres - ext[i, 0]) * mat.pitch_row_m / h[i]
-        out[i] = 100 * np.histogram(below, edges, weights=load / load.sum())[0]
+    load = p.sum(2)  # (N, rows)
+    total = load.sum(1, keepdims=True)
+    ok = np.isfinite(ext[:, 0]) & (total[:, 0] > 0)
+    below = ((np.arange(p.shape[1]) + 0.5)[None] - ext[:, :1]) * mat.pitch_row_m / h[:, None]  # (N, rows)
+    nbins = len(edges) - 1
+    k = np.searchsorted(edges, below, side="right") - 1  # the band of each row, as np.histogram bins it
+    k[below == edges[-1]] = nbins - 1  # histogram's last band is closed on the right
+    inside = ok[:, None] & (k >= 0) & (k < nbins)
+    out = np.zeros((len(p), nbins))
+    share = np.divide(load, total, out=np.zeros_like(load), where=total > 0)
+    np.add.at(out, (np.nonzero(inside)[0], k[inside]), share[inside])
+    out *= 100
+    out[~ok] = np.nan
     return out
 
 

@@ -157,10 +157,7 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         elif suffix == ".npz":
             from pressurepose.files import load_npz
 
-            arrays = load_npz(path, "pressure file")
-            if key not in arrays:
-                raise BadInput(f"pressure file {str(path)!r} has no array {key!r} (has: {', '.join(arrays)})")
-            arr = arrays[key]
+            arr = load_npz(path, "pressure file", (key,))[key]  # only the images, not a pack's labels
         elif suffix in (".h5", ".hdf5"):
             import h5py
 
@@ -189,10 +186,10 @@ def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
         from pressurepose.data.schema import GENDERS
         from pressurepose.files import load_npz
 
-        arrays = load_npz(path, "pressure file")
-        if key not in arrays:
-            raise BadInput(f"pressure file {str(path)!r} has no {key!r} array; pass --gender")
-        values = arrays[key]
+        try:
+            values = load_npz(path, "pressure file", (key,))[key]
+        except BadInput as exc:
+            raise BadInput(f"{exc}; pass --gender") from None
         if values.dtype.kind in "iu":
             if values.size and not (0 <= values.min() and values.max() < len(GENDERS)):
                 raise BadInput(f"pressure file {str(path)!r}: gender codes {sorted(set(values.tolist()))} are not "
