@@ -302,8 +302,10 @@ def main(argv=None) -> int:
         "",
         f"Training on the CPU, one thread, batch {args.train_batch}, the training loop's steps (noise, input "
         f"transform, forward, loss, backward, Adam); median of {args.train_steps} steps. The paper's CNN in "
-        "float32 is the default; the others are options (`train --cnn half|quarter`, `--cpu-amp`) whose "
-        "accuracy against the paper's has not been measured side by side; each still overfits a tiny set "
+        "float32 is the default; the others are options (`train --cnn half|quarter`, `--cpu-amp`). The half CNN "
+        "was measured against the paper's on two seeds of the shipped recipe (section cnn-width: the paper CNN "
+        "was no better on real posture and worse on real stature and simulated bodies); the quarter CNN's "
+        "accuracy has not been measured. Each still overfits a tiny set "
         "(tests/net/test_train_options.py). The shipped model is the half CNN trained with bf16 autocast "
         "(section shipped_model), which also makes its inference faster than the paper CNN's.",
         "",

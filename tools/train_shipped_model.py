@@ -48,9 +48,12 @@ spread, not on the same weights. ``--turn-loss 0 --seed 1`` rebuilds the model s
 sessions 14-16. With today's defaults the whole data step, 9,498 training and 360 test samples,
 took 85 minutes with 2 workers. On a CUDA GPU (``--device auto`` finds one) the same schedule trained in about
 10 minutes on an H200 (Mod1 7-10 s an epoch with three runs sharing the GPU, Mod2 11-12 s alone;
-docs/RESULTS.md section gpu-rebuild). The paper CNN (``--cnn paper``) has 2.3 times the weights
-(about 33 MB in float16 for both modules, within issue 14's 40 MB for a shipped model); on a GPU it
-is the one to try next, as no run has compared it with the half-width CNN yet.
+docs/RESULTS.md section gpu-rebuild); with ``--batch-size 64`` two runs side by side took about 3.5
+minutes each, and read simulated and real images as well as the batch-32 seeds (section cnn-width).
+The paper CNN (``--cnn paper``, 2.3 times the weights, about 33 MB in float16 for both modules) was
+measured against the half-width default on two seeds there: no better on real posture, 0.6-0.7 cm
+worse on real stature and 0.3-0.5 cm on simulated bodies (it overfits these 9,498 samples), so
+the half-width CNN stays the default.
 ``--scale 1.7`` gives about 10,000 training samples from the paper's mix alone.
 
 These are far below the paper's 184K samples x 100 epochs x 2 modules.
