@@ -12,8 +12,10 @@ from its head end, so they also depend on where the shoulder lies below that end
    measured heights, simulated bodies' model statures), for real and simulated side-lying and
    supine images: where the shoulder's load lies below the head.
 2. **The same rests re-posed and pressed again** (no settling; the lowest point kept where it was):
-   the lower collar raised toward the head (a shrugged lower shoulder) or the neck and head flexed
-   forward (chin toward the chest), to see which moves the simulated profile toward the real one.
+   the lower collar raised toward the head (a shrugged lower shoulder), the neck and head flexed
+   forward (chin toward the chest), or the lower shoulder girdle glided toward the head along the
+   ribs (joint offsets, ``BodyModel.forward``), to see which moves the simulated profile toward the
+   real one.
 3. **Settled with the neck's springs resting flexed** (``SettleConfig.lateral_neck_flexion_deg``,
    for bodies drawn on their side): the region shares against all of PMD-I and against its two
    groups of people (a setting chosen on some people should suit the others), as drawn and with
@@ -40,7 +42,7 @@ from benchmarks.bench_spine import simulate_set, subset
 from benchmarks.results import write_section
 
 REPOSED = (("shrug", 20.0), ("shrug", 35.0), ("tilt", 20.0), ("tilt", 40.0), ("flex", 20.0), ("flex", 40.0),
-           ("flex", 60.0))
+           ("flex", 60.0), ("glide", 3.0), ("glide", 5.0), ("glide", 8.0), ("flex40_glide", 5.0))
 HEAD_BAND = 0.11                 # the head's load: within this fraction of the stature below the head end
 SHOULDER_BAND = (0.08, 0.35)     # where the shoulder's peak row is looked for, fraction of the stature
 SETTLED_FLEXION = (0.0, 40.0, 60.0)  # 0: the default settle, the same draws (its CPU measured alike)
@@ -96,6 +98,32 @@ def repose(pose, joints, how: str, deg: float) -> np.ndarray:
     return p
 
 
+def glide_offsets(joints, cm: float) -> np.ndarray:
+    """Joint offsets (24, 3) (``BodyModel.forward``) that glide the lower shoulder girdle of a body
+    whose joints (24, 3) lie in the bed frame by ``cm`` toward the head along the trunk (its collar's
+    rest place moved along the parent's +y): the scapula riding up the ribs, which no SMPL rotation
+    expresses; the arm and the skin on it follow."""
+    j = np.asarray(joints, dtype=np.float64)
+    if j.shape != (24, 3):
+        raise ValueError(f"joints {j.shape}: expected (24, 3)")
+    off = np.zeros((24, 3))
+    off[COLLARS[0] if j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2] else COLLARS[1], 1] = cm / 100.0
+    return off
+
+
+def posed_variant(pose, joints, how, amount: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """A rest's pose (72,) and joint offsets (or None) re-posed by ``how``: None (as it is), ``glide``
+    (:func:`glide_offsets`, ``amount`` cm), ``flex40_glide`` (the neck and head flexed 40 degrees and
+    the girdle glided ``amount`` cm), or one of :func:`repose`'s (``amount`` degrees)."""
+    if how is None:
+        return np.asarray(pose, dtype=np.float64), None
+    if how == "glide":
+        return np.asarray(pose, dtype=np.float64), glide_offsets(joints, amount)
+    if how == "flex40_glide":
+        return repose(pose, joints, "flex", 40.0), glide_offsets(joints, amount)
+    return repose(pose, joints, how, amount), None
+
+
 def head_to_shoulder(images, mat, heights) -> np.ndarray:
     """(N, 3) per image (N, rows, cols) of people ``heights`` (N,) m tall, as fractions of the
     stature below the head end of the contact: the head's load centroid (the rows within
@@ -121,7 +149,7 @@ def head_to_shoulder(images, mat, heights) -> np.ndarray:
 
 def repressed(paths, variants) -> tuple[dict, np.ndarray]:
     """Every side-lying body (roll within 45 degrees of a side) of the datasets ``paths`` re-posed
-    by each of ``variants`` ((how, deg); (None, 0) the rest as it is) and pressed again with its
+    by each of ``variants`` ((how, amount) as :func:`posed_variant` takes them; (None, 0) the rest as it is) and pressed again with its
     lowest point where it rested: ({variant: (N, R, C) mmHg}, statures (N,)); bodies one variant
     cannot balance are left out of all."""
     from pressurepose.data.dataset import DatasetReader
@@ -141,13 +169,13 @@ def repressed(paths, variants) -> tuple[dict, np.ndarray]:
             lowest = body.forward(b, np.asarray(s.pose, np.float64), t)[0][0, :, 2].min()
             got = {}
             try:
-                for how, deg in variants:
-                    p = np.asarray(s.pose, np.float64) if how is None else repose(s.pose, s.joints, how, deg)
+                for how, amount in variants:
+                    p, off = posed_variant(s.pose, s.joints, how, amount)
                     t2 = t.copy()
-                    t2[2] += lowest - body.forward(b, p, t)[0][0, :, 2].min()
-                    verts, _ = body.forward(b, p, t2)
-                    got[(how, deg)] = press(verts[0], body.faces, float(s.mass), bed,
-                                            bones=body_bones(body, b, p, t2, bed.tissue_bone_fraction)).pressure
+                    t2[2] += lowest - body.forward(b, p, t, off)[0][0, :, 2].min()
+                    verts, _ = body.forward(b, p, t2, off)
+                    bones = body_bones(body, b, p, t2, bed.tissue_bone_fraction, offsets=off)
+                    got[(how, amount)] = press(verts[0], body.faces, float(s.mass), bed, bones=bones).pressure
             except PressFailed:
                 continue
             for v in variants:
@@ -270,7 +298,9 @@ def main(argv=None) -> int:
               "|---|" + "---|" * (len(R.REGIONS) + 3),
               "| real | " + " | ".join(f"{x:.1f}" for x in real_lat) + f" | | {real_band:.1f} | {real_gap:.3f} |"]
     names = {None: "as settled", "shrug": "lower collar raised {:g} deg",
-             "tilt": "neck and head bent {:g} deg toward the lower shoulder", "flex": "neck and head flexed {:g} deg"}
+             "tilt": "neck and head bent {:g} deg toward the lower shoulder", "flex": "neck and head flexed {:g} deg",
+             "glide": "lower shoulder girdle glided {:g} cm toward the head",
+             "flex40_glide": "neck and head flexed 40 deg, girdle glided {:g} cm"}
     for v in variants:
         shares = 100 * np.nanmean(R.region_shares(rep[v], mat), 0)
         band = np.nanmean(R.load_profile(rep[v], mat, rep_h)[:, 2:4].sum(1))

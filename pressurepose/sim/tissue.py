@@ -104,17 +104,18 @@ class BoneCores:
         return Bones(self.ends, frac * self.mean_radius * self.scale)
 
 
-def bone_cores(body, betas, pose, transl) -> BoneCores:
-    """The :class:`BoneCores` of a posed body (betas (S,), pose (72,), transl (3,), as ``BodyModel.forward``)."""
+def bone_cores(body, betas, pose, transl, offsets=None) -> BoneCores:
+    """The :class:`BoneCores` of a posed body (betas (S,), pose (72,), transl (3,), offsets None or
+    (24, 3), as ``BodyModel.forward``)."""
     betas = np.asarray(betas, dtype=np.float64)
     caps = capsules_for(body, betas)
     ends, _ = posed_capsules(body, caps, betas, np.asarray(pose, dtype=np.float64)[None],
-                             np.asarray(transl, dtype=np.float64)[None])
+                             np.asarray(transl, dtype=np.float64)[None], offsets)
     mean_r, mean_h = _mean_radii(body)
     return BoneCores(ends[0], mean_r, float(body.height(betas)[0]) / mean_h)
 
 
-def body_bones(body, betas, pose, transl, fraction=TISSUE_BONE_FRACTION) -> Bones:
-    """The bones of a posed body (betas (S,), pose (72,), transl (3,), as ``BodyModel.forward``) with
-    the bone fractions ``fraction`` (a bed's ``tissue_bone_fraction``)."""
-    return bone_cores(body, betas, pose, transl).bones(fraction)
+def body_bones(body, betas, pose, transl, fraction=TISSUE_BONE_FRACTION, offsets=None) -> Bones:
+    """The bones of a posed body (betas (S,), pose (72,), transl (3,), offsets None or (24, 3), as
+    ``BodyModel.forward``) with the bone fractions ``fraction`` (a bed's ``tissue_bone_fraction``)."""
+    return bone_cores(body, betas, pose, transl, offsets).bones(fraction)

@@ -60,3 +60,29 @@ def test_a_tilt_bends_the_head_toward_the_lower_shoulder():
     _, j2 = body.forward(betas, repose(pose, j, "tilt", 40.0))
     assert j2[0, 15, 0] > j0[0, 15, 0] + 0.01
     np.testing.assert_allclose(j2[0, :12], j0[0, :12], atol=1e-12)
+
+
+def test_a_glide_moves_the_lower_shoulder_girdle_toward_the_head_by_its_length():
+    """On the toy body standing (z up, the head along +z): a 5 cm glide lifts the lower collar, its
+    shoulder, elbow, wrist and hand by 5 cm along +z and leaves every other joint; combined with the
+    neck's flexion it also moves the head."""
+    from benchmarks.bench_lateral_profile import glide_offsets, posed_variant
+
+    body = BodyModel(toy_body_arrays())
+    pose, betas = np.zeros(72), np.zeros(10)
+    _, j0 = body.forward(betas, pose)
+    j = j0[0].copy()
+    j[17, 2] -= 1.0  # the right shoulder is the lower one
+    p, off = posed_variant(pose, j, "glide", 5.0)
+    np.testing.assert_array_equal(p, pose)
+    _, j2 = body.forward(betas, p, offsets=off)
+    right = [14, 17, 19, 21, 23]
+    np.testing.assert_allclose(j2[0, right] - j0[0, right], np.broadcast_to([0, 0, 0.05], (5, 3)), atol=1e-12)
+    others = [k for k in range(24) if k not in right]
+    np.testing.assert_allclose(j2[0, others], j0[0, others], atol=1e-12)
+    p, off = posed_variant(pose, j, "flex40_glide", 5.0)
+    _, j3 = body.forward(betas, p, offsets=off)
+    assert j3[0, 15, 1] < j0[0, 15, 1] - 0.01
+    np.testing.assert_allclose(j3[0, right], j2[0, right], atol=1e-12)
+    with pytest.raises(ValueError, match=r"\(24, 3\)"):
+        glide_offsets(np.zeros((23, 3)), 5.0)

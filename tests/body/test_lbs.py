@@ -135,3 +135,52 @@ def test_mass_and_volume_of_toy_boxes():
     # beta 0 scales all lengths by 1.05: volume by 1.05^3
     np.testing.assert_allclose(body.volume(np.eye(10)[:1]), body.volume(np.zeros(10)) * 1.05 ** 3, rtol=1e-9)
     np.testing.assert_allclose(body.mass(np.zeros(10)), 1000 * body.volume(np.zeros(10)))
+
+
+def test_joint_offset_moves_the_joint_and_what_hangs_on_it_as_worked_out_on_paper():
+    body = BodyModel(chain_model())
+    pose = np.zeros(9)
+    pose[3:6] = [0, 0, np.pi / 2]  # joint 1 turns 90 deg about the model z axis
+    offsets = np.zeros((3, 3))
+    offsets[2] = [0, 0.5, 0]  # joint 2 sits 0.5 m further along joint 1's y axis (rest axes)
+    verts, joints = body.forward(np.zeros(1), pose, transl=[0.0, 0.0, 1.0], offsets=offsets)
+    # in the model frame joint 1's turn maps the offset (0, .5, 0) to (-.5, 0, 0): joint 2 at (.5, 1, 0),
+    # vertex 2 (all on joint 2) at (.5, 1.5, 0); joints 0, 1 and the vertices on them stay put.
+    np.testing.assert_allclose(joints[0], [[0, 0, 1], [1, 0, 1], [0.5, 0, 2]], atol=1e-12)
+    np.testing.assert_allclose(verts[0, :3], [[0.5, 0, 1], [1, 0, 1.5], [0.5, 0, 2.5]], atol=1e-12)
+
+
+def test_zero_offsets_change_nothing_and_a_collar_glide_carries_its_arm():
+    from pressurepose.body.capsules import capsules_for, joint_frames, posed_capsules
+
+    body = BodyModel("neutral")
+    rng = np.random.default_rng(3)
+    betas, pose, transl = rng.normal(0, 1, 10), rng.normal(0, 0.3, 72), np.array([0.4, 0.9, 0.3])
+    v0, j0 = body.forward(betas, pose, transl)
+    v1, j1 = body.forward(betas, pose, transl, offsets=np.zeros((24, 3)))
+    np.testing.assert_array_equal(v0, v1)
+    np.testing.assert_array_equal(j0, j1)
+    offsets = np.zeros((24, 3))
+    offsets[13] = [0, 0.05, 0]  # the left collar glides 5 cm toward the head, in its parent's (spine3's) frame
+    v2, j2 = body.forward(betas, pose, transl, offsets=offsets)
+    _, W = joint_frames(body, betas, pose[None], transl[None])
+    shift = W[0, 9] @ (Y_UP_TO_Z_UP @ offsets[13])  # spine3's world rotation applied to the offset
+    arm = [13, 16, 18, 20, 22]
+    np.testing.assert_allclose(j2[0, arm] - j0[0, arm], np.broadcast_to(shift, (5, 3)), atol=1e-12)
+    rest = [k for k in range(24) if k not in arm]
+    np.testing.assert_allclose(j2[0, rest], j0[0, rest], atol=1e-12)
+    hand = body.arrays.weights[:, 22] > 0.999  # skin wholly on the left hand follows it rigidly
+    np.testing.assert_allclose(v2[0, hand] - v0[0, hand], np.broadcast_to(shift, (hand.sum(), 3)), atol=1e-9)
+    caps = capsules_for(body, betas)
+    e0, _ = posed_capsules(body, caps, betas, pose[None], transl[None])
+    e2, _ = posed_capsules(body, caps, betas, pose[None], transl[None], offsets)
+    moved = np.abs(e2 - e0).max(axis=(0, 2, 3)) > 1e-9
+    assert moved.any() and not moved.all()  # the arm's capsules move with it, the legs' do not
+
+
+def test_bad_offsets_are_named():
+    body = BodyModel(chain_model())
+    with pytest.raises(BadInput, match="offsets has shape"):
+        body.forward(np.zeros(1), np.zeros(9), offsets=np.zeros((2, 3)))
+    with pytest.raises(BadInput, match="offsets contains NaN"):
+        body.forward(np.zeros(1), np.zeros(9), offsets=np.full((3, 3), np.nan))
