@@ -46,7 +46,7 @@ REPOSED = (("shrug", 20.0), ("shrug", 35.0), ("tilt", 20.0), ("tilt", 40.0), ("f
 HEAD_BAND = 0.11                 # the head's load: within this fraction of the stature below the head end
 SHOULDER_BAND = (0.08, 0.35)     # where the shoulder's peak row is looked for, fraction of the stature
 SETTLED_FLEXION = (0.0, 40.0, 60.0)  # 0: the default settle, the same draws (its CPU measured alike)
-COLLARS, SHOULDERS, NECK_HEAD = (13, 14), (16, 17), (12, 15)  # SMPL joint indices
+COLLARS, SHOULDERS, NECK_HEAD, CHEST = (13, 14), (16, 17), (12, 15), (6, 9)  # SMPL joint indices
 
 
 def first_rows(images, fraction: float = 0.02) -> np.ndarray:
@@ -229,6 +229,36 @@ def head_touches(paths, radius_m: float = 0.10) -> float:
     return float(np.mean(hits))
 
 
+def standout(body, betas, pose, transl, offsets=None) -> tuple[float, float]:
+    """How high the lower shoulder's and the chest's skin lie above a posed body's lowest point (m):
+    the lowest vertex skinned mostly to the lower collar or shoulder joint, and to the spine2 or spine3
+    joint (the ribcage); ``offsets`` as ``BodyModel.forward`` takes them. A body lying on its side whose
+    shoulder stands out beyond its ribs, as a real shoulder does, has the chest higher than the shoulder."""
+    v, j = body.forward(betas, pose, transl, offsets)
+    v, j = v[0], j[0]
+    dom = body.arrays.weights.argmax(1)
+    lower = (COLLARS[0], SHOULDERS[0]) if j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2] else (COLLARS[1], SHOULDERS[1])
+    low = v[:, 2].min()
+    return float(v[np.isin(dom, lower), 2].min() - low), float(v[np.isin(dom, CHEST), 2].min() - low)
+
+
+def standouts(paths) -> np.ndarray:
+    """(N, 2) :func:`standout` of every side-lying body (roll within 45 degrees of a side) of the
+    datasets ``paths`` as it rested."""
+    from pressurepose.data.dataset import DatasetReader
+    from pressurepose.data.physics import setup
+    from pressurepose.sim.posture import roll_angle
+
+    out = []
+    for path in paths:
+        reader = DatasetReader(path)
+        body, _ = setup(reader.datasets[0].manifest.config)
+        for s in reader:
+            if abs(abs(np.degrees(roll_angle(s.pose))) - 90.0) <= 45.0:
+                out.append(standout(body, *(np.asarray(x, dtype=np.float64) for x in (s.betas, s.pose, s.transl))))
+    return np.array(out).reshape(-1, 2)
+
+
 def main(argv=None) -> int:
     args = parse_args(__doc__, argv)
     from pressurepose.eval import realism as R
@@ -283,6 +313,16 @@ def main(argv=None) -> int:
         keep = st.posture == posture
         hs = np.nanmedian(head_to_shoulder(st.pressure[keep], mat, st.height[keep]), 0)
         lines.append(f"| {name} | {hs[0]:.3f} | {hs[1]:.3f} | {hs[2]:.3f} |")
+
+    so = standouts(lateral)
+    gap = so[:, 1] - so[:, 0]
+    lines += ["", f"Where the side-lying rests touch ({len(so)} bodies as settled; medians, 25-75 %, cm above the "
+              "body's lowest point): the lower shoulder's skin (vertices skinned mostly to its collar or shoulder "
+              f"joint) {100 * np.median(so[:, 0]):.1f} ({100 * np.percentile(so[:, 0], 25):.1f}-"
+              f"{100 * np.percentile(so[:, 0], 75):.1f}), the chest's (spine2, spine3) {100 * np.median(so[:, 1]):.1f} "
+              f"({100 * np.percentile(so[:, 1], 25):.1f}-{100 * np.percentile(so[:, 1], 75):.1f}); the chest lies "
+              f"{100 * np.median(gap):.1f} cm above the shoulder (median per body), and below it in "
+              f"{np.mean(gap < 0):.2f} of the bodies."]
 
     # 2. re-posed rests
     side = real.posture == "lateral"

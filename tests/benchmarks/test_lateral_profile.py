@@ -86,3 +86,26 @@ def test_a_glide_moves_the_lower_shoulder_girdle_toward_the_head_by_its_length()
     np.testing.assert_allclose(j3[0, right], j2[0, right], atol=1e-12)
     with pytest.raises(ValueError, match=r"\(24, 3\)"):
         glide_offsets(np.zeros((23, 3)), 5.0)
+
+
+def test_standout_reads_the_chest_higher_by_as_much_as_the_lower_shoulder_girdle_sinks():
+    """The toy body (a T-pose of boxes) lying on its side rests on its lower hand. Moving the lower
+    collar, and with it the arm and that hand, 5 cm toward the bed leaves the shoulder's height above
+    the lowest point as it was and raises the chest's by exactly 5 cm; moving the body changes nothing."""
+    from scipy.spatial.transform import Rotation
+
+    from benchmarks.bench_lateral_profile import standout
+
+    body = BodyModel(toy_body_arrays())
+    pose, betas = np.zeros(72), np.zeros(10)
+    pose[:3] = (Rotation.from_euler("x", -90, degrees=True) * Rotation.from_euler("y", -90, degrees=True)).as_rotvec()
+    _, j = body.forward(betas, pose)
+    assert j[0, 17, 2] < j[0, 16, 2]  # the right shoulder is the lower one
+    shoulder, chest = standout(body, betas, pose, None)
+    assert chest > shoulder > 0
+    np.testing.assert_allclose(standout(body, betas, pose, np.array([0.3, -1.0, 2.0])), (shoulder, chest), atol=1e-12)
+    offsets = np.zeros((24, 3))
+    offsets[14, 0] = -0.05  # the right collar 5 cm along spine3's -x: straight down into the bed here
+    _, j2 = body.forward(betas, pose, offsets=offsets)
+    np.testing.assert_allclose(j2[0, 14] - j[0, 14], [0, 0, -0.05], atol=1e-12)
+    np.testing.assert_allclose(standout(body, betas, pose, None, offsets), (shoulder, chest + 0.05), atol=1e-12)
