@@ -231,8 +231,8 @@ def head_touches(paths, radius_m: float = 0.10) -> float:
 
 def standout(body, betas, pose, transl, offsets=None) -> tuple[float, float]:
     """How high the lower shoulder's and the chest's skin lie above a posed body's lowest point (m):
-    the lowest vertex skinned mostly to the lower collar or shoulder joint, and to the spine2 or spine3
-    joint (the ribcage); ``offsets`` as ``BodyModel.forward`` takes them. A body lying on its side whose
+    the lowest vertex skinned mostly to the lower collar or shoulder joint (the top of the shoulder and
+    the upper arm), and to the spine2 or spine3 joint (the ribcage); ``offsets`` as ``BodyModel.forward`` takes them. A body lying on its side whose
     shoulder stands out beyond its ribs, as a real shoulder does, has the chest higher than the shoulder."""
     v, j = body.forward(betas, pose, transl, offsets)
     v, j = v[0], j[0]
@@ -318,7 +318,7 @@ def main(argv=None) -> int:
     gap = so[:, 1] - so[:, 0]
     lines += ["", f"Where the side-lying rests touch ({len(so)} bodies as settled; medians, 25-75 %, cm above the "
               "body's lowest point): the lower shoulder's skin (vertices skinned mostly to its collar or shoulder "
-              f"joint) {100 * np.median(so[:, 0]):.1f} ({100 * np.percentile(so[:, 0], 25):.1f}-"
+              f"joint: the top of the shoulder and the upper arm) {100 * np.median(so[:, 0]):.1f} ({100 * np.percentile(so[:, 0], 25):.1f}-"
               f"{100 * np.percentile(so[:, 0], 75):.1f}), the chest's (spine2, spine3) {100 * np.median(so[:, 1]):.1f} "
               f"({100 * np.percentile(so[:, 1], 25):.1f}-{100 * np.percentile(so[:, 1], 75):.1f}); the chest lies "
               f"{100 * np.median(gap):.1f} cm above the shoulder (median per body), and below it in "
