@@ -9,7 +9,11 @@
 # Each run is stopped DEADLINE_S seconds after it starts; a stopped run leaves only its log.csv.
 # Measured (session 13, one H200, the command saw 4 CPU cores): with three runs sharing the GPU each Mod1
 # epoch took 7-10 s, and a Mod2 epoch 11-12 s alone, so 48 + 16 epochs need about 10 minutes of the GPU;
-# three such runs side by side did not finish 48 Mod1 epochs in 450 s.
+# three such runs side by side did not finish 48 Mod1 epochs in 450 s. Session 19 (one H200, 16 CPU cores,
+# OMP_NUM_THREADS=2 a run): two runs side by side with "--batch-size 64" each took about 3.5 minutes
+# (Mod1 2.4-3.1 s an epoch, Mod2 4.3-5.6 s), the GPU 91-99 % busy, and read real and simulated images
+# as well as the batch-32 seeds (docs/RESULTS.md section cnn-width). A warm machine keeps WORK: a
+# NAME trained again with other arguments is refused ("differs in"); give it a new NAME.
 set -u
 PACK=$1; DL=$2; shift 2
 OUT=${OUT:-runs/gpu_variants}; WORK=${WORK:-/tmp/gpu_variants}
