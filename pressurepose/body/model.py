@@ -148,7 +148,8 @@ class BodyModel:
         """Numpy forward pass. betas (B, S), pose (B, 72), transl (B, 3) or None; offsets None or
         (B, 24, 3) (or (24, 3)) metres added to each joint's rest place relative to its parent, in the
         parent's frame with the model's own axes at rest (+y toward the head, +z forward, +x the body's
-        left): a joint and all below it move, as a shoulder girdle gliding on the ribs does.
+        left; (24, 3) applies to every body): a joint and all below it move, as a shoulder girdle
+        gliding on the ribs does. The torch layer has no offsets.
 
         Returns vertices (B, V, 3) and joints (B, 24, 3), metres. 1-D inputs are a batch of one.
         """
@@ -160,8 +161,8 @@ class BodyModel:
         if offsets is None:
             return None
         off = np.asarray(offsets, dtype=np.float64)
-        if off.ndim == 2:
-            off = off[None]
+        if off.shape == (self.num_joints, 3):
+            off = np.broadcast_to(off, (batch, self.num_joints, 3))  # the same offsets for every body
         if off.shape != (batch, self.num_joints, 3):
             raise BadInput(f"offsets has shape {np.shape(offsets)}; expected ({batch}, {self.num_joints}, 3) "
                            f"or ({self.num_joints}, 3) metres")

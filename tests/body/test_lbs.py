@@ -184,3 +184,14 @@ def test_bad_offsets_are_named():
         body.forward(np.zeros(1), np.zeros(9), offsets=np.zeros((2, 3)))
     with pytest.raises(BadInput, match="offsets contains NaN"):
         body.forward(np.zeros(1), np.zeros(9), offsets=np.full((3, 3), np.nan))
+
+
+def test_one_set_of_offsets_applies_to_every_body_of_a_batch():
+    body = BodyModel(chain_model())
+    offsets = np.zeros((3, 3))
+    offsets[2] = [0, 0.5, 0]
+    _, joints = body.forward(np.zeros((2, 1)), np.zeros((2, 9)), offsets=offsets)
+    _, one = body.forward(np.zeros(1), np.zeros(9), offsets=offsets)
+    np.testing.assert_allclose(joints, np.concatenate([one, one]), atol=1e-12)
+    with pytest.raises(BadInput, match=r"expected \(2, 3, 3\)"):
+        body.forward(np.zeros((2, 1)), np.zeros((2, 9)), offsets=np.zeros((3, 3, 3)))
