@@ -109,3 +109,18 @@ def test_standout_reads_the_chest_higher_by_as_much_as_the_lower_shoulder_girdle
     _, j2 = body.forward(betas, pose, offsets=offsets)
     np.testing.assert_allclose(j2[0, 14] - j[0, 14], [0, 0, -0.05], atol=1e-12)
     np.testing.assert_allclose(standout(body, betas, pose, None, offsets), (shoulder, chest + 0.05), atol=1e-12)
+
+
+def test_head_aligned_lines_images_up_by_their_head_end_and_the_figure_is_written(tmp_path):
+    from benchmarks.bench_lateral_profile import head_aligned, side_by_side_figure
+    from pressurepose.sim.bed import get_mat
+
+    mat = get_mat("boditrak_bt3510")
+    imgs = np.stack([_column(3, 40, 10), _column(12, 50, 20)])
+    out = head_aligned(imgs, mat, rows=30)
+    assert out.shape == (2, 30, mat.cols)
+    np.testing.assert_array_equal(out[0], imgs[0, 3:33])
+    np.testing.assert_array_equal(out[1], imgs[1, 12:42])
+    path = tmp_path / "side.png"
+    side_by_side_figure(np.concatenate([imgs] * 3), np.concatenate([imgs] * 3), mat, path, n=2)
+    assert path.stat().st_size > 1000
