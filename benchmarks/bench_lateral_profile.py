@@ -43,7 +43,8 @@ from benchmarks.bench_spine import simulate_set, subset
 from benchmarks.results import write_section
 
 REPOSED = (("shrug", 20.0), ("shrug", 35.0), ("tilt", 20.0), ("tilt", 40.0), ("flex", 20.0), ("flex", 40.0),
-           ("flex", 60.0), ("glide", 3.0), ("glide", 5.0), ("glide", 8.0), ("flex40_glide", 5.0))
+           ("flex", 60.0), ("glide", 3.0), ("glide", 5.0), ("glide", 8.0), ("flex40_glide", 5.0), ("widen", 2.0),
+           ("widen", 4.0))
 HEAD_BAND = 0.11                 # the head's load: within this fraction of the stature below the head end
 SHOULDER_BAND = (0.08, 0.35)     # where the shoulder's peak row is looked for, fraction of the stature
 SETTLED_FLEXION = (0.0, 40.0, 60.0)  # 0: the default settle, the same draws (its CPU measured alike)
@@ -99,27 +100,32 @@ def repose(pose, joints, how: str, deg: float) -> np.ndarray:
     return p
 
 
-def glide_offsets(joints, cm: float) -> np.ndarray:
-    """Joint offsets (24, 3) (``BodyModel.forward``) that glide the lower shoulder girdle of a body
-    whose joints (24, 3) lie in the bed frame by ``cm`` toward the head along the trunk (its collar's
-    rest place moved along the parent's +y): the scapula riding up the ribs, which no SMPL rotation
-    expresses; the arm and the skin on it follow."""
+def glide_offsets(joints, cm: float, outward: bool = False) -> np.ndarray:
+    """Joint offsets (24, 3) (``BodyModel.forward``) that move the lower shoulder girdle of a body
+    whose joints (24, 3) lie in the bed frame by ``cm``: toward the head along the trunk (its collar's
+    rest place moved along the parent's +y: the scapula riding up the ribs, which no SMPL rotation
+    expresses), or with ``outward`` away from the trunk's mid-plane (a broader shoulder that stands
+    further out beyond the ribs). The arm and the skin on it follow."""
     j = np.asarray(joints, dtype=np.float64)
     if j.shape != (24, 3):
         raise ValueError(f"joints {j.shape}: expected (24, 3)")
+    left_lower = j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2]
     off = np.zeros((24, 3))
-    off[COLLARS[0] if j[SHOULDERS[0], 2] < j[SHOULDERS[1], 2] else COLLARS[1], 1] = cm / 100.0
+    if outward:  # the model's +x is the body's left
+        off[COLLARS[0] if left_lower else COLLARS[1], 0] = (1.0 if left_lower else -1.0) * cm / 100.0
+    else:
+        off[COLLARS[0] if left_lower else COLLARS[1], 1] = cm / 100.0
     return off
 
 
 def posed_variant(pose, joints, how, amount: float) -> tuple[np.ndarray, np.ndarray | None]:
     """A rest's pose (72,) and joint offsets (or None) re-posed by ``how``: None (as it is), ``glide``
-    (:func:`glide_offsets`, ``amount`` cm), ``flex40_glide`` (the neck and head flexed 40 degrees and
+    or ``widen`` (:func:`glide_offsets` toward the head or outward, ``amount`` cm), ``flex40_glide`` (the neck and head flexed 40 degrees and
     the girdle glided ``amount`` cm), or one of :func:`repose`'s (``amount`` degrees)."""
     if how is None:
         return np.asarray(pose, dtype=np.float64), None
-    if how == "glide":
-        return np.asarray(pose, dtype=np.float64), glide_offsets(joints, amount)
+    if how in ("glide", "widen"):
+        return np.asarray(pose, dtype=np.float64), glide_offsets(joints, amount, outward=how == "widen")
     if how == "flex40_glide":
         return repose(pose, joints, "flex", 40.0), glide_offsets(joints, amount)
     return repose(pose, joints, how, amount), None
@@ -387,7 +393,8 @@ def main(argv=None) -> int:
     names = {None: "as settled", "shrug": "lower collar raised {:g} deg",
              "tilt": "neck and head bent {:g} deg toward the lower shoulder", "flex": "neck and head flexed {:g} deg",
              "glide": "lower shoulder girdle glided {:g} cm toward the head",
-             "flex40_glide": "neck and head flexed 40 deg, girdle glided {:g} cm"}
+             "flex40_glide": "neck and head flexed 40 deg, girdle glided {:g} cm",
+             "widen": "lower shoulder girdle moved {:g} cm outward"}
     for v in variants:
         shares = 100 * np.nanmean(R.region_shares(rep[v], mat), 0)
         band = np.nanmean(R.load_profile(rep[v], mat, rep_h)[:, 2:4].sum(1))

@@ -124,3 +124,19 @@ def test_head_aligned_lines_images_up_by_their_head_end_and_the_figure_is_writte
     path = tmp_path / "side.png"
     side_by_side_figure(np.concatenate([imgs] * 3), np.concatenate([imgs] * 3), mat, path, n=2)
     assert path.stat().st_size > 1000
+
+
+def test_widen_moves_the_lower_shoulder_girdle_away_from_the_mid_plane():
+    from benchmarks.bench_lateral_profile import posed_variant
+
+    body = BodyModel(toy_body_arrays())
+    pose, betas = np.zeros(72), np.zeros(10)
+    _, j0 = body.forward(betas, pose)
+    for lower, chain, sign in ((16, [13, 16, 18, 20, 22], 1.0), (17, [14, 17, 19, 21, 23], -1.0)):
+        j = j0[0].copy()
+        j[lower, 2] -= 1.0
+        p, off = posed_variant(pose, j, "widen", 4.0)
+        _, j2 = body.forward(betas, p, offsets=off)
+        # standing, the model's +x (the body's left) is the bed frame's +x: the left girdle moves +x, the right -x
+        np.testing.assert_allclose(j2[0, chain] - j0[0, chain], np.broadcast_to([sign * 0.04, 0, 0], (5, 3)),
+                                   atol=1e-12)
