@@ -92,8 +92,9 @@ def forward(model: SmplArrays, betas: np.ndarray, pose: np.ndarray, transl: np.n
 
     betas: (B, S) with S <= model.num_betas; pose: (B, 3 J) SMPL axis-angle, the first 3 the global
     orientation; transl: (B, 3) metres or None; offsets: None or (B, J, 3), joint offsets as
-    :func:`forward_kinematics` takes them (the skin follows each joint's transform). Returns vertices (B, V, 3) and joints (B, J, 3) in
-    the z-up project frame: ``Y_UP_TO_Z_UP @ skinned + transl``.
+    :func:`forward_kinematics` takes them (the skin follows each joint's transform). Returns
+    vertices (B, V, 3) and joints (B, J, 3) in the z-up project frame:
+    ``Y_UP_TO_Z_UP @ skinned + transl``.
     """
     betas = np.atleast_2d(np.asarray(betas, dtype=np.float64))
     pose = np.atleast_2d(np.asarray(pose, dtype=np.float64))
