@@ -12,8 +12,8 @@ its smallest entries round up to one sample, so they weigh a little more than in
 The recipe's rate is also predicted from the rows: the paper's full-scale mix of partitions and
 genders, each at its row's CPU per sample (:func:`mix_rate`; entries with limbs over the bed at
 their partition's row without). At the old default scale, 0.0005
-(110 samples), the run read 1.46 where the rows predict about 1.1, and a 620-sample run (scale
-0.003) measured 1.09-1.11: so few samples of the slow partitions make the small run's figure luck.
+(110 samples), the run read 1.46 where the rows predict about 1.0, and 620-sample runs (scale
+0.003) measured 1.09-1.20: so few samples of the slow partitions made the small run's figure luck.
 
 Where the time goes is measured in this process, on the very same attempts (same configs and
 per-attempt seeds): settle steps to rest, rejected attempts by cause with how many steps and CPU
