@@ -367,6 +367,17 @@ def main(argv=None) -> int:
         hs = np.nanmedian(head_to_shoulder(st.pressure[keep], mat, st.height[keep]), 0)
         lines.append(f"| {name} | {hs[0]:.3f} | {hs[1]:.3f} | {hs[2]:.3f} |")
 
+    lines += ["", "Per region (medians over images): contact taxels over 5 mmHg and the mean reading over them, real / "
+              "simulated (`realism.region_contact`):", "",
+              "| region | side-lying taxels | side-lying mmHg | supine taxels | supine mmHg |", "|---|---|---|---|---|"]
+    rc = {(who, post): np.nanmedian(R.region_contact(st.pressure[st.posture == post], mat), 0)
+          for who, post, st in (("real", "lateral", real), ("real", "supine", real), ("sim", "lateral", sim_lat),
+                                ("sim", "supine", sim_sup))}
+    for k, region in enumerate(R.REGIONS):
+        lines.append(f"| {region} | " + " | ".join(
+            f"{rc[('real', post)][k, q]:.{0 if q == 0 else 1}f} / {rc[('sim', post)][k, q]:.{0 if q == 0 else 1}f}"
+            for post in ("lateral", "supine") for q in (0, 1)) + " |")
+
     so = standouts(lateral)
     gap = so[:, 1] - so[:, 0]
     lines += ["", f"Where the side-lying rests touch ({len(so)} bodies as settled; medians, 25-75 %, cm above the "

@@ -265,17 +265,42 @@ def region_shares(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=No
     p = _images(images)
     row_load = p.sum(2)
     ext = body_extent(p, mat, rule, head)
-    cuts = np.concatenate([[-np.inf], rule.bounds, [np.inf]])
     out = np.full((len(p), len(REGIONS)), np.nan)
-    edges = np.arange(p.shape[1] + 1, dtype=np.float64)
-    for i, (a, b) in enumerate(ext):
-        if not np.isfinite(a) or row_load[i].sum() <= 0:
+    for i, e in enumerate(ext):
+        if not np.isfinite(e[0]) or row_load[i].sum() <= 0:
             continue
-        f = (edges - a) / (b - a)  # row edges as fractions of the extent
-        lo, hi = f[:-1], f[1:]
-        cover = np.clip(np.minimum(hi[:, None], cuts[None, 1:]) - np.maximum(lo[:, None], cuts[None, :-1]), 0, None)
-        cover /= (hi - lo)[:, None]
-        out[i] = row_load[i] @ cover / row_load[i].sum()
+        out[i] = row_load[i] @ _region_cover(e, p.shape[1], rule) / row_load[i].sum()
+    return out
+
+
+def _region_cover(ext_row: np.ndarray, rows: int, rule: RegionRule) -> np.ndarray:
+    """(rows, 7) how much of each image row falls in each region, for an extent (first, last) in rows."""
+    a, b = ext_row
+    cuts = np.concatenate([[-np.inf], rule.bounds, [np.inf]])
+    f = (np.arange(rows + 1, dtype=np.float64) - a) / (b - a)  # row edges as fractions of the extent
+    lo, hi = f[:-1], f[1:]
+    cover = np.clip(np.minimum(hi[:, None], cuts[None, 1:]) - np.maximum(lo[:, None], cuts[None, :-1]), 0, None)
+    return cover / (hi - lo)[:, None]
+
+
+def region_contact(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
+    """(N, 7, 2) per image and region of :data:`REGIONS`: contact taxels (readings over
+    ``rule.contact_mmhg``; a row split between regions as in :func:`region_shares`) and the mean
+    reading over them, mmHg (NaN where a region has no contact). Where region shares differ, this
+    says whether a region touches over too little area or presses too hard."""
+    p = _images(images)
+    on = p > rule.contact_mmhg
+    count, load = on.sum(2).astype(np.float64), (p * on).sum(2)
+    ext = body_extent(p, mat, rule, head)
+    out = np.full((len(p), len(REGIONS), 2), np.nan)
+    for i, e in enumerate(ext):
+        if not np.isfinite(e[0]) or count[i].sum() <= 0:
+            continue
+        cover = _region_cover(e, p.shape[1], rule)
+        taxels = count[i] @ cover
+        out[i, :, 0] = taxels
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[i, :, 1] = np.where(taxels > 0, (load[i] @ cover) / taxels, np.nan)
     return out
 
 

@@ -274,3 +274,17 @@ def test_load_profile_refuses_bad_input():
         R.load_profile(img, MAT, [0.0])
     with pytest.raises(BadInput, match="band"):
         R.load_profile(img, MAT, [1.7], band=0.8, reach=0.7)
+
+
+def test_region_contact_counts_the_taxels_and_their_mean_reading_per_region():
+    img = body()
+    on = img > R.DEFAULT_RULE.contact_mmhg
+    got = R.region_contact(img, MAT)[0]
+    # the taxels add up to the contact area, and taxel-weighted means give back the mean over the contact
+    assert got[:, 0].sum() == pytest.approx(on.sum())
+    assert (got[:, 0] * got[:, 1]).sum() == pytest.approx(img[on].sum())
+    # the heels region (rows 55.94 .. 60 of an extent 2 .. 60) holds 9 taxels of 8 mmHg a row
+    a, b = 2.0, 60.0
+    assert got[-1, 0] == pytest.approx((b - (a + 0.93 * (b - a))) * 9)
+    assert got[-1, 1] == pytest.approx(8.0)
+    assert np.isnan(R.region_contact(np.zeros((1, MAT.rows, MAT.cols)), MAT)).all()
