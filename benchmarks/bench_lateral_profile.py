@@ -154,40 +154,53 @@ def head_to_shoulder(images, mat, heights) -> np.ndarray:
     return out
 
 
-def repressed(paths, variants) -> tuple[dict, np.ndarray]:
-    """Every side-lying body (roll within 45 degrees of a side) of the datasets ``paths`` re-posed
-    by each of ``variants`` ((how, amount) as :func:`posed_variant` takes them; (None, 0) the rest as it is) and pressed again with its
-    lowest point where it rested: ({variant: (N, R, C) mmHg}, statures (N,)); bodies one variant
-    cannot balance are left out of all."""
+def side_lying(poses) -> np.ndarray:
+    """(N,) bool for SMPL poses (N, 72): the root rolled within 45 degrees of either side."""
+    from pressurepose.sim.posture import roll_angle
+
+    return np.abs(np.abs(np.degrees(roll_angle(np.asarray(poses).reshape(-1, 72)))) - 90.0) <= 45.0
+
+
+def side_lying_rests(paths, desc: str | None = None):
+    """Yield (body, bed, sample) for every side-lying rest (:func:`side_lying`) of the datasets
+    ``paths``, each with the body model and bed it was made with (a progress bar when ``desc``)."""
     from pressurepose.data.dataset import DatasetReader
     from pressurepose.data.physics import setup
-    from pressurepose.sim.posture import roll_angle
+
+    for path in paths:
+        reader = DatasetReader(path)
+        body, bed = setup(reader.datasets[0].manifest.config)
+        for s in (tqdm(reader, desc=f"{desc} {path.name}", leave=False) if desc else reader):
+            if side_lying(s.pose)[0]:
+                yield body, bed, s
+
+
+def repressed(paths, variants) -> tuple[dict, np.ndarray]:
+    """Every side-lying rest of the datasets ``paths`` (:func:`side_lying_rests`) re-posed by each of
+    ``variants`` ((how, amount) as :func:`posed_variant` takes them; (None, 0) the rest as it is) and
+    pressed again with its lowest point where it rested: ({variant: (N, R, C) mmHg}, statures (N,));
+    bodies one variant cannot balance are left out of all."""
     from pressurepose.sim.press import PressFailed, press
     from pressurepose.sim.tissue import body_bones
 
     images, heights = {v: [] for v in variants}, []
-    for path in paths:
-        reader = DatasetReader(path)
-        body, bed = setup(reader.datasets[0].manifest.config)
-        for s in tqdm(reader, desc=f"re-posed {path.name}", leave=False):
-            if abs(abs(np.degrees(roll_angle(s.pose))) - 90.0) > 45.0:
-                continue
-            b, t = (np.asarray(x, dtype=np.float64) for x in (s.betas, s.transl))
-            lowest = body.forward(b, np.asarray(s.pose, np.float64), t)[0][0, :, 2].min()
-            got = {}
-            try:
-                for how, amount in variants:
-                    p, off = posed_variant(s.pose, s.joints, how, amount)
-                    t2 = t.copy()
-                    t2[2] += lowest - body.forward(b, p, t, off)[0][0, :, 2].min()
-                    verts, _ = body.forward(b, p, t2, off)
-                    bones = body_bones(body, b, p, t2, bed.tissue_bone_fraction, offsets=off)
-                    got[(how, amount)] = press(verts[0], body.faces, float(s.mass), bed, bones=bones).pressure
-            except PressFailed:
-                continue
-            for v in variants:
-                images[v].append(got[v])
-            heights.append(float(s.height))
+    for body, bed, s in side_lying_rests(paths, "re-posed"):
+        b, t = (np.asarray(x, dtype=np.float64) for x in (s.betas, s.transl))
+        lowest = body.forward(b, np.asarray(s.pose, np.float64), t)[0][0, :, 2].min()
+        got = {}
+        try:
+            for how, amount in variants:
+                p, off = posed_variant(s.pose, s.joints, how, amount)
+                t2 = t.copy()
+                t2[2] += lowest - body.forward(b, p, t, off)[0][0, :, 2].min()
+                verts, _ = body.forward(b, p, t2, off)
+                bones = body_bones(body, b, p, t2, bed.tissue_bone_fraction, offsets=off)
+                got[(how, amount)] = press(verts[0], body.faces, float(s.mass), bed, bones=bones).pressure
+        except PressFailed:
+            continue
+        for v in variants:
+            images[v].append(got[v])
+        heights.append(float(s.height))
     return {v: np.array(x) for v, x in images.items()}, np.array(heights)
 
 
@@ -224,13 +237,12 @@ def head_touches(paths, radius_m: float = 0.10) -> float:
     sets with contact (over 5 mmHg) within ``radius_m`` of their head joint: whether heads touch,
     whatever the image-only imprint rule finds."""
     from pressurepose.sim.bed import get_bed
-    from pressurepose.sim.posture import roll_angle
 
     centres = get_bed().taxel_centers()
     hits = []
     for p in paths:
         with np.load(p, allow_pickle=False) as z:
-            side = np.abs(np.abs(np.degrees(roll_angle(z["pose"]))) - 90.0) <= 45.0
+            side = side_lying(z["pose"])
             for img, j in zip(z["pressure"][side], z["joints"][side]):
                 hits.append(bool((img[np.linalg.norm(centres - j[15, :2], axis=-1) < radius_m] > 5.0).any()))
     return float(np.mean(hits))
@@ -239,8 +251,9 @@ def head_touches(paths, radius_m: float = 0.10) -> float:
 def standout(body, betas, pose, transl, offsets=None) -> tuple[float, float]:
     """How high the lower shoulder's and the chest's skin lie above a posed body's lowest point (m):
     the lowest vertex skinned mostly to the lower collar or shoulder joint (the top of the shoulder and
-    the upper arm), and to the spine2 or spine3 joint (the ribcage); ``offsets`` as ``BodyModel.forward`` takes them. A body lying on its side whose
-    shoulder stands out beyond its ribs, as a real shoulder does, has the chest higher than the shoulder."""
+    the upper arm), and to the spine2 or spine3 joint (the ribcage); ``offsets`` as ``BodyModel.forward``
+    takes them. A body lying on its side whose shoulder stands out beyond its ribs, as a real shoulder
+    does, has the chest higher than the shoulder."""
     v, j = body.forward(betas, pose, transl, offsets)
     v, j = v[0], j[0]
     dom = body.arrays.weights.argmax(1)
@@ -250,19 +263,9 @@ def standout(body, betas, pose, transl, offsets=None) -> tuple[float, float]:
 
 
 def standouts(paths) -> np.ndarray:
-    """(N, 2) :func:`standout` of every side-lying body (roll within 45 degrees of a side) of the
-    datasets ``paths`` as it rested."""
-    from pressurepose.data.dataset import DatasetReader
-    from pressurepose.data.physics import setup
-    from pressurepose.sim.posture import roll_angle
-
-    out = []
-    for path in paths:
-        reader = DatasetReader(path)
-        body, _ = setup(reader.datasets[0].manifest.config)
-        for s in reader:
-            if abs(abs(np.degrees(roll_angle(s.pose))) - 90.0) <= 45.0:
-                out.append(standout(body, *(np.asarray(x, dtype=np.float64) for x in (s.betas, s.pose, s.transl))))
+    """(N, 2) :func:`standout` of every side-lying rest of the datasets ``paths`` (:func:`side_lying_rests`)."""
+    out = [standout(body, *(np.asarray(x, dtype=np.float64) for x in (s.betas, s.pose, s.transl)))
+           for body, _, s in side_lying_rests(paths)]
     return np.array(out).reshape(-1, 2)
 
 

@@ -140,3 +140,15 @@ def test_widen_moves_the_lower_shoulder_girdle_away_from_the_mid_plane():
         # standing, the model's +x (the body's left) is the bed frame's +x: the left girdle moves +x, the right -x
         np.testing.assert_allclose(j2[0, chain] - j0[0, chain], np.broadcast_to([sign * 0.04, 0, 0], (5, 3)),
                                    atol=1e-12)
+
+
+def test_side_lying_is_the_lateral_posture_classes_away_from_their_edges():
+    from benchmarks.bench_lateral_profile import side_lying
+    from pressurepose.sim.posture import posture_classes, roll_angle
+
+    poses = np.random.default_rng(0).normal(0, 1.5, (400, 72))
+    roll = np.degrees(roll_angle(poses))
+    clear = np.abs(np.abs(np.abs(roll) - 90.0) - 45.0) > 1.0  # not within a degree of a class edge
+    lateral = np.isin(posture_classes(poses), ("left_lateral", "right_lateral"))
+    assert 50 < lateral.sum() < 350
+    np.testing.assert_array_equal(side_lying(poses)[clear], lateral[clear])
