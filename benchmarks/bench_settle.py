@@ -45,7 +45,8 @@ def run(body, samples, bed, config, gender):
             caps = capsules_for(body, batch.betas[i])
             params = ragdoll_params(body, batch.betas[i], gender, caps=caps,
                                     masses=segment_masses(body, batch.betas[i], gender, caps=caps),
-                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness)
+                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness,
+                                    limb_damping_s=config.limb_damping_s)
             t1 = time.process_time()
             res = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, config, params=params)
             rows.append((part, res, t1 - t0, time.process_time() - t1))

@@ -126,7 +126,9 @@ def settle_line(record) -> str:
     dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: before session 12
     step = (f"step {dt:g} s throughout" if factor == 1.0 else
             f"step {dt:g} s, {factor * dt:g} s from {record.get('coarse_after_steps')} steps after touching")
-    return f"{neck}, {spine}, {step}"
+    limbs = record.get("limb_damping_s")  # absent: the paper's limb damping
+    limbs = "" if limbs is None else f", relaxed limbs (damping {limbs:g} s x stiffness)"
+    return f"{neck}, {spine}{limbs}, {step}"
 
 
 def format_summary(s: Summary) -> str:

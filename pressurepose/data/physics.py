@@ -42,17 +42,15 @@ def settle_config(config: GenerationConfig):
     return settle_preset(config.settle)
 
 
-# Settle options added after datasets were made with the settle: recorded only when set, so a dataset
-# begun before them (and so made without them) still resumes.
-_SETTLE_OPTIONS_RECORDED_WHEN_SET = ("lateral_neck_flexion_deg",)
+# Settle options added after datasets were made with the settle, with the value every earlier dataset
+# was made with: recorded only when they differ from it, so a dataset begun before them still resumes
+# (and one begun with another value does not).
+_SETTLE_OPTIONS_RECORDED_WHEN_SET = {"lateral_neck_flexion_deg": 0.0, "limb_damping_s": None}
 
 
 def _settle_record(settle) -> dict:
-    from pressurepose.sim.settle import SettleConfig
-
-    default = SettleConfig()
     return {k: v for k, v in dataclasses.asdict(settle).items()
-            if k not in _SETTLE_OPTIONS_RECORDED_WHEN_SET or v != getattr(default, k)}
+            if k not in _SETTLE_OPTIONS_RECORDED_WHEN_SET or v != _SETTLE_OPTIONS_RECORDED_WHEN_SET[k]}
 
 
 def provenance(config: GenerationConfig) -> dict:

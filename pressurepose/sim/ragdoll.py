@@ -78,6 +78,17 @@ NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
 # chosen among 200, 40, 20, 10 and 4 on PMD-I's region shares, benchmarks/bench_spine.py).
 RELAXED_SPINE_STIFFNESS = 20.0
 SPINE_JOINTS = tuple(JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3"))
+# Relaxed limbs (``limb_damping_s``; None keeps the paper's 15 s): the damping of the limb joints (hips,
+# knees, ankles, collars, shoulders, elbows, wrists) as this many seconds x their stiffness. With the
+# paper's 15 s an arm held up only by its relaxed shoulder falls at about the settle's resting speed
+# (gravity ~9 N m on a shoulder damped at 60 N m s/rad: 0.15 rad/s, 5-9 cm/s at the hand), so the
+# resting test cannot tell a falling limb from one at rest and stops most supine bodies with their
+# hands in the air (docs/physics.md, "Relaxed limbs"). 3 s is the least damping at which the
+# ball-joint limit penalty stays stable at the settle's coarse 0.02 s step
+# (dt x LIMIT_STIFFNESS_FACTOR / damping-per-stiffness <= 2, see below). An option, not the default.
+RELAXED_LIMB_DAMPING_S = 3.0
+LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{n}") for side in ("left", "right")
+                    for n in ("hip", "knee", "ankle", "collar", "shoulder", "elbow", "wrist"))
 # hinge joints: SMPL joint -> SMPL local axis (knees x, elbows y), as in pressurepose.pose.limits
 HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
 # Penalty stiffness of the ball-joint limits, as a multiple of the joint's own stiffness. The settle
@@ -261,7 +272,8 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,
                    masses: CapsuleMasses | None = None, limits=None, relaxed_neck: bool = True,
-                   spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS) -> RagdollParams:
+                   spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS,
+                   limb_damping_s: float | None = None) -> RagdollParams:
     """The ragdoll of ``body`` with shape ``betas`` (S,).
 
     gender: the mass table and the mean mass that scales the joint stiffness (default the body's);
@@ -271,6 +283,8 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
     the bed; False: the paper's stiffness.
     spine_stiffness: N m/rad of the spine1-3 joints for the average body (scaled by mass like the
     others; default :data:`RELAXED_SPINE_STIFFNESS`); None: the paper's 200.
+    limb_damping_s: damping of the :data:`LIMB_JOINTS` as seconds x their stiffness (None: the
+    paper's :data:`DAMPING_PER_STIFFNESS_S`).
     """
     from pressurepose.pose.limits import joint_limits
 
@@ -301,6 +315,12 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
         spine = np.isin(joints, SPINE_JOINTS)
         stiffness[spine] = scale * float(spine_stiffness)
         damping[spine] = DAMPING_PER_STIFFNESS_S * stiffness[spine]
+    if limb_damping_s is not None:
+        if isinstance(limb_damping_s, bool) or not isinstance(limb_damping_s, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(limb_damping_s) or limb_damping_s <= 0:
+            raise BadInput(f"limb_damping_s is {limb_damping_s!r}; expected a positive number of seconds or None")
+        limb = np.isin(joints, LIMB_JOINTS)
+        damping[limb] = float(limb_damping_s) * stiffness[limb]
     com, inertia_full = joint_frame_mass_properties(masses, caps)
     principal, axes = np.linalg.eigh(inertia_full)
     axes = axes * np.where(np.linalg.det(axes) < 0, -1.0, 1.0)[:, None, None]  # proper rotations

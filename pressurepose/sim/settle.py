@@ -123,6 +123,11 @@ class SettleConfig:
         (docs/sim_to_real.md, session 18), not a default: it moves the loaded shoulder of
         simulated side-lying images toward the real ones', and the image-only head-imprint rule
         then misses more heads.
+    limb_damping_s: the damping of the limb joints (hips, knees, ankles, collars, shoulders, elbows,
+        wrists) as this many seconds x their stiffness; None (the default) keeps the paper's 15 s. With
+        the paper's damping a relaxed arm falls at about the resting speed, so 42 % of resting wrists
+        stay more than 0.1 m above the bed; 3 rests them on it. An option, not a default: on PMD-I's
+        images it helps some statistics and hurts others (docs/physics.md, "Relaxed limbs").
     """
 
     timestep_s: float = 0.01
@@ -151,6 +156,7 @@ class SettleConfig:
     coarse_factor: float = 2.0
     coarse_after_steps: int = 150
     lateral_neck_flexion_deg: float = 0.0
+    limb_damping_s: float | None = None
 
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
@@ -169,6 +175,10 @@ class SettleConfig:
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
             raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, "
                            f"or None for the paper's")
+        v = self.limb_damping_s
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
+            raise BadInput(f"settle limb_damping_s is {v!r}; expected a positive number of seconds, or None for "
+                           f"the paper's 15")
         v = self.lateral_neck_flexion_deg
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v <= 90.0:
             raise BadInput(f"settle lateral_neck_flexion_deg is {v!r}; expected degrees from 0 to 90")
@@ -510,7 +520,7 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         caps = capsules_for(body, betas)
         masses = segment_masses(body, betas, g, caps=caps)
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck,
-                                spine_stiffness=config.spine_stiffness)
+                                spine_stiffness=config.spine_stiffness, limb_damping_s=config.limb_damping_s)
     if config.lateral_neck_flexion_deg > 0 and posture_class(pose) in ("left_lateral", "right_lateral"):
         params = dataclasses.replace(params, home=flexed_neck_home(params.home,
                                                                    math.radians(config.lateral_neck_flexion_deg)))

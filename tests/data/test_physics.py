@@ -194,6 +194,8 @@ def test_info_says_how_bodies_were_settled():
         del before[key]  # a manifest written before the spine could relax and the step grow
     assert settle_line(before) == "relaxed neck, the paper's stiff spine, step 0.01 s throughout"
     assert settle_line(None) == ""
+    assert settle_line(dataclasses.asdict(SettleConfig(limb_damping_s=3.0))) == \
+        f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad), relaxed limbs (damping 3 s x stiffness), {coarse}"
 
 
 @pytest.mark.slow
@@ -234,5 +236,8 @@ def test_a_settle_option_added_later_is_recorded_only_when_set():
 
     record = physics.provenance(GenerationConfig(partition="general_lateral", gender="f", count=2, seed=3))
     assert "lateral_neck_flexion_deg" not in record["settle"]
-    assert set(record["settle"]) == {f.name for f in dataclasses.fields(SettleConfig)} - {"lateral_neck_flexion_deg"}
+    assert set(record["settle"]) == {f.name for f in dataclasses.fields(SettleConfig)} - {"lateral_neck_flexion_deg",
+                                                                                          "limb_damping_s"}
     assert physics._settle_record(SettleConfig(lateral_neck_flexion_deg=30.0))["lateral_neck_flexion_deg"] == 30.0
+    assert "limb_damping_s" not in record["settle"]  # the paper's damping, as every dataset before the option
+    assert physics._settle_record(SettleConfig(limb_damping_s=3.0))["limb_damping_s"] == 3.0

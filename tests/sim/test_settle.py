@@ -502,3 +502,49 @@ def test_flexed_neck_home_moves_only_the_neck_and_head():
 def test_settle_config_rejects_a_bad_neck_flexion(bad):
     with pytest.raises(BadInput, match="lateral_neck_flexion_deg"):
         SettleConfig(lateral_neck_flexion_deg=bad)
+
+
+# ------------------------------------------------------------------------------ relaxed limbs
+
+def test_limb_damping_sets_the_limb_joints_only(body):
+    from pressurepose.body.capsules import CAPSULE_JOINTS
+    from pressurepose.sim.ragdoll import LIMB_JOINTS
+
+    paper = ragdoll_params(body, BETAS, "female")
+    relaxed = ragdoll_params(body, BETAS, "female", limb_damping_s=3.0)
+    limb = np.isin(CAPSULE_JOINTS, LIMB_JOINTS)
+    assert limb.sum() == 14  # thighs, calves, feet, collars, upper arms, forearms, hands
+    np.testing.assert_allclose(relaxed.damping[limb], 3.0 * relaxed.stiffness[limb])
+    np.testing.assert_allclose(paper.damping[limb], 15.0 * paper.stiffness[limb])
+    np.testing.assert_array_equal(relaxed.damping[~limb], paper.damping[~limb])
+    np.testing.assert_array_equal(relaxed.stiffness, paper.stiffness)
+
+
+@pytest.mark.parametrize("bad", [0.0, -3.0, float("nan"), True])
+def test_settle_config_rejects_a_bad_limb_damping(bad):
+    with pytest.raises(BadInput, match="limb_damping_s"):
+        SettleConfig(limb_damping_s=bad)
+    with pytest.raises(BadInput, match="limb_damping_s"):
+        ragdoll_params(BodyModel(toy_body_arrays()), BETAS, "female", limb_damping_s=bad)
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+def test_raised_arms_come_to_rest_on_the_bed_with_relaxed_limbs():
+    """A relaxed arm held up by nothing but its shoulder falls onto the bed. With relaxed limbs the
+    settle rests both hands there; with the paper's damping (15 s) a falling arm moves at about the
+    resting speed, and the settle stops with the hands still in the air."""
+    from pressurepose.pose.sampler import body_rng, sample_one
+
+    body = BodyModel("female")
+    drawn = sample_one("general_supine", "f", body_rng(13, 0), body=body)
+    caps = capsules_for(body, drawn.betas)
+    hands = [caps.names.index(h) for h in ("left_hand", "right_hand")]
+    low = {}
+    for damping in (3.0, None):
+        res = settle(body, drawn.betas, drawn.pose, drawn.transl, "female", BED,
+                     dataclasses.replace(FAST, limb_damping_s=damping))
+        assert res.ok
+        ends, radius = posed_capsules(body, caps, drawn.betas, res.pose[None], res.transl[None])
+        low[damping] = ends[0, hands, :, 2].min(-1) - radius[hands]  # each hand's lowest point, m above the bed
+    assert np.all(low[3.0] < 0.02)  # on (and into) the mattress, whose top is z = 0
+    assert np.all(low[None] > 0.1)
