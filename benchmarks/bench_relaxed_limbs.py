@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_realism import DEFAULT_DATA
-from benchmarks.bench_spine import PARTITIONS, row, simulate_set
+from benchmarks.bench_spine import PAPER, PARTITIONS, paper_or_positive, row, simulate_set
 from benchmarks.results import write_section
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.eval.realism import REGIONS, region_contact
@@ -34,7 +34,6 @@ from pressurepose.eval.realism_report import ImageSet, load_real, load_synthetic
 from pressurepose.sim.bed import get_mat
 from pressurepose.sim.settle import SettleConfig
 
-PAPER = "paper"
 HANDS = tuple(JOINT_NAMES.index(n) for n in ("left_wrist", "right_wrist"))
 FEET = tuple(JOINT_NAMES.index(n) for n in ("left_ankle", "right_ankle"))
 IN_THE_AIR_M = 0.10  # a wrist or ankle joint this high above the unloaded mattress top is not on the bed
@@ -103,14 +102,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("runs/bench_relaxed_limbs"))
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
-    names = [s.strip() for s in args.damping.split(",") if s.strip()]
-    for n in names:
-        try:
-            ok = n == PAPER or 0 < float(n) < float("inf")
-        except ValueError:
-            ok = False
-        if not ok:
-            raise SystemExit(f"--damping {n!r}: expected positive numbers of seconds or 'paper'")
+    names = paper_or_positive(args.damping, "--damping", "seconds")
     try:
         seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
     except ValueError:

@@ -42,6 +42,20 @@ PARTITIONS = ("general_supine", "general_lateral")
 PAPER = "paper"
 
 
+def paper_or_positive(text: str, option: str, unit: str) -> list[str]:
+    """The comma-separated names of ``option``: 'paper' or positive numbers (of ``unit``); SystemExit
+    naming the first that is neither."""
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    for n in names:
+        try:
+            ok = n == PAPER or 0 < float(n) < float("inf")
+        except ValueError:
+            ok = False
+        if not ok:
+            raise SystemExit(f"{option} {n!r}: expected positive numbers of {unit} or '{PAPER}'")
+    return names
+
+
 def stiffness_of(name: str) -> float | None:
     return None if name == PAPER else float(name)
 
@@ -130,14 +144,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("runs/bench_spine"))
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
-    names = [s.strip() for s in args.stiffness.split(",") if s.strip()]
-    for n in names:
-        try:
-            ok = n == PAPER or 0 < stiffness_of(n) < float("inf")
-        except ValueError:
-            ok = False
-        if not ok:
-            raise SystemExit(f"--stiffness {n!r}: expected positive numbers of N m/rad or 'paper'")
+    names = paper_or_positive(args.stiffness, "--stiffness", "N m/rad")
     mat = get_mat("boditrak_bt3510")
     real = load_real(args.data, mat)
     group = subject_range(args.fit_subjects)
