@@ -85,9 +85,29 @@ def test_a_bed_file_goes_to_every_generate_call(tmp_path, monkeypatch):
         assert T.main() == 0
         generate = [c for c in calls if c[0] == "generate"]
         assert len(generate) == 1 and [c[0] for c in calls] == ["generate", "train", "evaluate"]
-        assert ("--bed" in generate[0]) == bool(extra)
+        assert ("--bed" in generate[0]) == bool(extra) and "--settle" not in generate[0]
         if extra:
             assert generate[0][generate[0].index("--bed") + 1] == str(bed.resolve())
+
+
+def test_a_settle_goes_to_generate(tmp_path, monkeypatch):
+    """`--settle relaxed-limbs` makes the data with that settle; the default passes none (generate's
+    default); it cannot go with --repress-from, which keeps an earlier run's rests."""
+    import sys
+
+    calls = []
+    T = _tool()
+    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    argv = ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01", "--real", str(tmp_path / "x")]
+    monkeypatch.setattr(sys, "argv", argv + ["--settle", "relaxed-limbs"])
+    assert T.main() == 0
+    generate = [c for c in calls if c[0] == "generate"][0]
+    assert generate[generate.index("--settle") + 1] == "relaxed-limbs"
+    bed = tmp_path / "bed.json"
+    bed.write_text("{}")
+    monkeypatch.setattr(sys, "argv", argv + ["--settle", "paper", "--bed", str(bed), "--repress-from", "old"])
+    with pytest.raises(SystemExit):
+        T.main()
 
 
 def test_repress_from_re_presses_both_splits_and_generates_only_the_wedge_entries(tmp_path, monkeypatch):

@@ -173,6 +173,8 @@ def main() -> int:
     p.add_argument("--bed", default=None, metavar="JSON",
                    help="make the data on this bed (a `pressurepose calibrate --out` file; `generate --bed`) "
                         "instead of the default bed, e.g. to judge a calibrated bed by a model trained on it")
+    p.add_argument("--settle", choices=("relaxed", "paper", "relaxed-limbs"), default="relaxed",
+                   help="how the data's bodies come to rest (`generate --settle`) [relaxed: the default settle]")
     p.add_argument("--repress-from", default=None, metavar="DATA",
                    help="with --bed: press the bodies of an earlier run's data (DATA/train and DATA/test, e.g. "
                         "runs/shipped/data) again on the bed (`pressurepose repress`: minutes, no settling; the "
@@ -199,6 +201,8 @@ def main() -> int:
             p.error(f"--{name} {getattr(args, name)}: expected a number of samples >= 0")
     if args.repress_from and not args.bed:
         p.error("--repress-from needs --bed (the bed to press the bodies on)")
+    if args.repress_from and args.settle != "relaxed":
+        p.error("--repress-from keeps the earlier run's rests: it cannot go with --settle")
 
     if args.train_data and (args.data_only or args.repress_from):
         p.error("--train-data trains on data made elsewhere: it cannot go with --data-only or --repress-from")
@@ -226,6 +230,7 @@ def main() -> int:
         if recipe["entries"]:
             cli("generate", "--recipe", str(recipe_file), "--randomize", "--shard-size",
                 str(args.shard_size), "--workers", str(args.workers), "--no-progress", "--out", str(data),
+                *(["--settle", args.settle] if args.settle != "relaxed" else []),
                 *(["--bed", str(Path(args.bed).resolve())] if args.bed else []))
     if args.data_only:
         return 0

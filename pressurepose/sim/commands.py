@@ -176,10 +176,13 @@ def _plot_history(ax, res):
 
 def add_settle_argument(p) -> None:
     """``--settle`` (shared by simulate and generate)."""
-    p.add_argument("--settle", choices=("relaxed", "paper"), default="relaxed",
+    # sim.settle.SETTLES, written out: importing the settle (and MuJoCo) here would slow every command's start
+    p.add_argument("--settle", choices=("relaxed", "paper", "relaxed-limbs"), default="relaxed",
                    help="how bodies come to rest: neck and spine relax so the head and the heavy pelvis sink "
-                        "onto the bed as people lie (relaxed, default), or the paper's joint springs throughout, "
-                        "which hold the head and trunk in their standing shape (paper); docs/physics.md")
+                        "onto the bed as people lie (relaxed, default); the paper's joint springs throughout, "
+                        "which hold the head and trunk in their standing shape (paper); or relaxed with limbs "
+                        "damped 5x less than the paper's, so resting hands lie on the bed (relaxed-limbs); "
+                        "docs/physics.md")
 
 
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:

@@ -69,10 +69,10 @@ from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
-from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS, RagdollIndex,
-                                      RagdollParams, add_ragdoll, flexed_neck_home, limit_torques, local_to_smpl,
-                                      pose_to_qpos, quat_to_rotvec, qpos_to_pose, ragdoll_params, rotation_to_quat,
-                                      write_params)
+from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_LIMB_DAMPING_S,
+                                      RELAXED_SPINE_STIFFNESS, RagdollIndex, RagdollParams, add_ragdoll,
+                                      flexed_neck_home, limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec,
+                                      qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
             "support_overlap")
@@ -192,16 +192,20 @@ class SettleConfig:
 
 
 # The settles a dataset can be made with (``GenerationConfig.settle``, ``generate --settle``).
-SETTLES = ("relaxed", "paper")
+SETTLES = ("relaxed", "paper", "relaxed-limbs")
 
 
 def settle_preset(name: str) -> SettleConfig:
     """The :class:`SettleConfig` of a named settle: 'relaxed' (the defaults: neck and spine relax so
-    bodies rest as people lie) or 'paper' (the paper's joint springs throughout)."""
+    bodies rest as people lie), 'paper' (the paper's joint springs throughout) or 'relaxed-limbs'
+    (the defaults with the limbs damped at :data:`~pressurepose.sim.ragdoll.RELAXED_LIMB_DAMPING_S`
+    x their stiffness, so resting hands lie on the bed, not in the air)."""
     if name == "relaxed":
         return SettleConfig()
     if name == "paper":
         return SettleConfig(relaxed_neck=False, spine_stiffness=None)
+    if name == "relaxed-limbs":
+        return SettleConfig(limb_damping_s=RELAXED_LIMB_DAMPING_S)
     raise BadInput(f"settle {name!r} is not known; expected one of {', '.join(SETTLES)}")
 
 

@@ -411,7 +411,8 @@ def test_settle_presets():
 
     assert settle_preset("relaxed") == SettleConfig()
     paper = settle_preset("paper")
-    assert paper.spine_stiffness is None and paper.relaxed_neck is False
+    assert paper.spine_stiffness is None and paper.relaxed_neck is False and paper.limb_damping_s is None
+    assert settle_preset("relaxed-limbs") == SettleConfig(limb_damping_s=3.0)
     with pytest.raises(BadInput, match="settle 'floppy' is not known"):
         settle_preset("floppy")
     p = argparse.ArgumentParser()
