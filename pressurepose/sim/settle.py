@@ -126,8 +126,9 @@ class SettleConfig:
     limb_damping_s: the damping of the limb joints (hips, knees, ankles, collars, shoulders, elbows,
         wrists) as this many seconds x their stiffness; None (the default) keeps the paper's 15 s. With
         the paper's damping a relaxed arm falls at about the resting speed, so 42 % of resting wrists
-        stay more than 0.1 m above the bed; 3 rests them on it. An option, not a default: on PMD-I's
-        images it helps some statistics and hurts others (docs/physics.md, "Relaxed limbs").
+        stay more than 0.1 m above the bed; 3 rests them on it (the settle preset 'relaxed-limbs'). An
+        option, not a default: on PMD-I's images it helps some statistics and hurts others
+        (docs/physics.md, "Relaxed limbs").
     """
 
     timestep_s: float = 0.01
