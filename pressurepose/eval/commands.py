@@ -208,6 +208,7 @@ def run_realism(args) -> int:
     write_json_atomic(out / "realism.json", report)
     draw_report(real, sim, report, out / "realism.png", examples=args.examples)
     print(format_realism(report["headline"]))
+    print("\n" + format_region_contacts(report))
     for g, d in report["postures"].items():
         if "match" in d:
             m = d["match"]
@@ -216,6 +217,18 @@ def run_realism(args) -> int:
                   f"{m['distinct_sim_images']} distinct simulated images; coverage {m['coverage']:.2f})")
     print(f"\nwritten to {out}")
     return 0
+
+
+def format_region_contacts(report: dict) -> str:
+    """A Markdown table of each posture's ``regions`` in a realism report: per region, the median contact
+    taxels and mean reading over them, real / simulated."""
+    f = lambda v, fmt: "-" if v is None else fmt.format(v)  # noqa: E731
+    lines = ["| posture | region | contact taxels real / sim | mean mmHg over them real / sim |", "|---|---|---|---|"]
+    for g, d in report["postures"].items():
+        for region, v in d.get("regions", {}).items():
+            lines.append(f"| {g} | {region} | {f(v['taxels_real'], '{:.0f}')} / {f(v['taxels_sim'], '{:.0f}')} | "
+                         f"{f(v['mmhg_real'], '{:.1f}')} / {f(v['mmhg_sim'], '{:.1f}')} |")
+    return "\n".join(lines)
 
 
 def format_worst_gap(row: dict) -> str:

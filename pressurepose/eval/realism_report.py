@@ -133,7 +133,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
     compare(...)}}} over the posture groups present in both sets (BadInput when none is). Where
     both sets know their people's statures, each group also has ``profile`` {'band', 'real',
     'simulated'}: the mean percent of the load per band of the stature below the head end
-    (:func:`~.realism.load_profile`).
+    (:func:`~.realism.load_profile`). Each group's ``regions`` holds, per region, the median contact
+    taxels and mean reading over them, real and simulated (:func:`~.realism.region_contact`).
 
     ``match``: compare like postures: within each group the simulated images are resampled (seeded)
     so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
@@ -181,6 +182,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
             pass
         if real.height is not None and sim.height is not None:
             entry["profile"] = _profiles(real, sim, rsel, ssel, weight, rule)
+        entry["regions"] = _region_contacts(real.pressure[rsel], sim.pressure[ssel if not match else ssel[pick]],
+                                            sim.mat, rule)
         out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
                               **entry}
     return out
@@ -196,6 +199,16 @@ def _profiles(real: ImageSet, sim: ImageSet, rsel, ssel, weight, rule: R.RegionR
         return [float(v) for v in np.average(prof[ok], axis=0, weights=w[ok])] if ok.any() else []
 
     return {"band": R.PROFILE_BAND, "real": mean(real, rsel, np.ones(len(rsel))), "simulated": mean(sim, ssel, weight)}
+
+
+def _region_contacts(real_images, sim_images, mat: MatSpec, rule: R.RegionRule) -> dict:
+    """{region: {'taxels_real', 'taxels_sim', 'mmhg_real', 'mmhg_sim'}}: medians over the images of
+    :func:`~.realism.region_contact` (contact taxels in the region, mean reading over them), which say
+    whether a region whose share differs touches over too little area or presses too hard."""
+    r, s = R.region_contact(real_images, mat, rule), R.region_contact(sim_images, mat, rule)
+    return {k: {"taxels_real": _median(r[:, j, 0]), "taxels_sim": _median(s[:, j, 0]),
+                "mmhg_real": _median(r[:, j, 1]), "mmhg_sim": _median(s[:, j, 1])}
+            for j, k in enumerate(R.REGIONS)}
 
 
 def _median(v) -> float | None:

@@ -129,6 +129,12 @@ def test_realism_verb_end_to_end(tmp_path):
     assert sup["simulated"]["head_imprint"]["rate"] == pytest.approx(2 / 3)
     assert sup["simulated"]["off_mat"]["median"] == pytest.approx(0.0, abs=1e-9)
     assert sum(sup["real"][f"share_{r}"]["mean"] for r in R.REGIONS) == pytest.approx(1.0)
+    # per region, the median contact taxels and reading, as region_contact says of each image
+    want = np.nanmedian(R.region_contact(sim, MAT), axis=0)
+    assert list(sup["regions"]) == list(R.REGIONS)
+    assert [sup["regions"][r]["taxels_sim"] for r in R.REGIONS] == pytest.approx(want[:, 0])
+    assert [sup["regions"][r]["mmhg_sim"] for r in R.REGIONS] == pytest.approx(want[:, 1])
+    assert sup["regions"]["heels"]["mmhg_real"] == pytest.approx(8.0, rel=0.15)
     assert (out / "realism.png").stat().st_size > 10_000
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "nope.npz"),
                  "--out", str(out)]) == 2
