@@ -148,6 +148,7 @@ def test_realism_verb_end_to_end(tmp_path):
     sup = json.loads((out / "realism.json").read_text())["postures"]["supine"]
     m = sup["match"]
     assert m["coverage"] > 0 and m["distinct_sim_images"] >= 1
+    assert set(sup["regions"]) == set(R.REGIONS)  # per region, over the matched resample
     # with both sets' statures known, the load along the body is reported too
     prof = sup["profile"]
     assert prof["band"] == R.PROFILE_BAND and len(prof["real"]) == len(prof["simulated"]) == 14
