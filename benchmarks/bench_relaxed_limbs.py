@@ -71,12 +71,14 @@ def image_set(paths, name: str) -> ImageSet:
 def air_and_cost(paths) -> dict:
     """Fractions of resting wrists and ankles more than :data:`IN_THE_AIR_M` above the mattress top
     (the joints' z in the bed frame), and attempts and CPU seconds per accepted body."""
-    z = np.concatenate([np.load(p)["joints"][..., 2] for p in paths])
-    n = sum(len(np.load(p)["mass"]) for p in paths)
+    z, attempts, cpu = [], 0, 0.0
+    for p in paths:
+        with np.load(p, allow_pickle=False) as f:
+            z.append(f["joints"][..., 2])
+            attempts, cpu = attempts + int(f["attempts"]), cpu + float(f["cpu_s"])
+    z = np.concatenate(z)
     return {"hands": float((z[:, HANDS] > IN_THE_AIR_M).mean()), "feet": float((z[:, FEET] > IN_THE_AIR_M).mean()),
-            "hand_z": float(np.median(z[:, HANDS])),
-            "attempts": sum(int(np.load(p)["attempts"]) for p in paths) / n,
-            "cpu": sum(float(np.load(p)["cpu_s"]) for p in paths) / n}
+            "hand_z": float(np.median(z[:, HANDS])), "attempts": attempts / len(z), "cpu": cpu / len(z)}
 
 
 def contact_rows(real: ImageSet, sims: dict[str, ImageSet], mat) -> list[str]:

@@ -134,6 +134,7 @@ def cli(*args: str) -> None:
 
 def main() -> int:
     from pressurepose.cli import seed_arg
+    from pressurepose.sim.settle import SETTLES
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")
@@ -173,7 +174,7 @@ def main() -> int:
     p.add_argument("--bed", default=None, metavar="JSON",
                    help="make the data on this bed (a `pressurepose calibrate --out` file; `generate --bed`) "
                         "instead of the default bed, e.g. to judge a calibrated bed by a model trained on it")
-    p.add_argument("--settle", choices=("relaxed", "paper", "relaxed-limbs"), default="relaxed",
+    p.add_argument("--settle", choices=SETTLES, default="relaxed",
                    help="how the data's bodies come to rest (`generate --settle`) [relaxed: the default settle]")
     p.add_argument("--repress-from", default=None, metavar="DATA",
                    help="with --bed: press the bodies of an earlier run's data (DATA/train and DATA/test, e.g. "

@@ -191,8 +191,8 @@ class GenerationConfig:
     calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
     how bodies come to rest (:data:`pressurepose.sim.settle.SETTLES`: 'relaxed', the default,
-    'paper', the paper's joint springs, or 'relaxed-limbs'); like the bed it changes no draw. A manifest written before
-    these existed reads back with :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation),
+    'paper', the paper's joint springs, or 'relaxed-limbs'); like the bed it changes no draw. A
+    manifest written before these existed reads back with :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation),
     the default bed and the 'relaxed' settle (its provenance records the constants that made it).
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and

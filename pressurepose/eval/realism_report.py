@@ -182,8 +182,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
             pass
         if real.height is not None and sim.height is not None:
             entry["profile"] = _profiles(real, sim, rsel, ssel, weight, rule)
-        entry["regions"] = _region_contacts(real.pressure[rsel], sim.pressure[ssel if not match else ssel[pick]],
-                                            sim.mat, rule)
+        sim_images = sim.pressure[ssel[pick] if match else ssel]  # the matched resample, repeats included
+        entry["regions"] = _region_contacts(real.pressure[rsel], sim_images, sim.mat, rule)
         out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
                               **entry}
     return out

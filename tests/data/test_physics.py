@@ -195,7 +195,8 @@ def test_info_says_how_bodies_were_settled():
     assert settle_line(before) == "relaxed neck, the paper's stiff spine, step 0.01 s throughout"
     assert settle_line(None) == ""
     assert settle_line(dataclasses.asdict(SettleConfig(limb_damping_s=3.0))) == \
-        f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad), relaxed limbs (damping 3 s x stiffness), {coarse}"
+        (f"relaxed neck, relaxed spine ({RELAXED_SPINE_STIFFNESS:g} N m/rad), relaxed limbs (damping 3 s x stiffness), "
+         f"{coarse}")
 
 
 @pytest.mark.slow
