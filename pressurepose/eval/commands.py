@@ -167,7 +167,8 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
         "thighs, calves, heels: fractions of the body's contact extent, the same image-only rule for both), "
         "peak and mean contact pressure, head-imprint rate and (simulated) load off the mat; medians, quartiles "
         "and distances (median ratio, Kolmogorov-Smirnov, Wasserstein, share differences in percentage points). "
-        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Writes OUT/realism.json "
+        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Prints issue 12's goals "
+        "(area within 20 %, head imprint >= 80 %, every region within 5 pp) as met or not. Writes OUT/realism.json "
         "and OUT/realism.png (distributions and example images side by side at one colour scale).")
     p.add_argument("--real", required=True, help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--synthetic", required=True,
@@ -188,7 +189,7 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_realism(args) -> int:
-    from pressurepose.eval.realism_report import (draw_report, headline, load_real, load_synthetic,
+    from pressurepose.eval.realism_report import (draw_report, goal_verdicts, headline, load_real, load_synthetic,
                                                   realism_report)
     from pressurepose.errors import BadInput
     from pressurepose.files import check_output_path, write_json_atomic
@@ -204,11 +205,13 @@ def run_realism(args) -> int:
                      only_detail=("wedge",) if args.only_wedge else ())
     report = realism_report(real, sim, match=args.match_extent)
     report["headline"] = headline(report)
+    report["goals"] = goal_verdicts(report["headline"])
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "realism.json", report)
     draw_report(real, sim, report, out / "realism.png", examples=args.examples)
     print(format_realism(report["headline"]))
     print("\n" + format_region_contacts(report))
+    print("\n" + format_goals(report["goals"]))
     for g, d in report["postures"].items():
         if "match" in d:
             m = d["match"]
@@ -228,6 +231,20 @@ def format_region_contacts(report: dict) -> str:
         for region, v in d.get("regions", {}).items():
             lines.append(f"| {g} | {region} | {f(v['taxels_real'], '{:.0f}')} / {f(v['taxels_sim'], '{:.0f}')} | "
                          f"{f(v['mmhg_real'], '{:.1f}')} / {f(v['mmhg_sim'], '{:.1f}')} |")
+    return "\n".join(lines)
+
+
+def format_goals(verdicts: list[dict]) -> str:
+    """A Markdown table of :func:`pressurepose.eval.realism_report.goal_verdicts`."""
+    lines = ["| posture | issue 12 goal | simulated | target | met |", "|---|---|---|---|---|"]
+    for v in verdicts:
+        value = "-" if v["value"] is None else f"{v['value']:.1f}" if "pp" in v["goal"] else f"{v['value']:.2f}"
+        met = "yes" if v["met"] else "no"
+        if v.get("interval") is not None:
+            value += f" ({v['interval'][0]:.1f}-{v['interval'][1]:.1f})"
+            if not v["met"] and v["interval_holds_goal"]:
+                met = "no (the interval reaches it)"
+        lines.append(f"| {v['posture']} | {v['goal']} | {value} | {v['target']} | {met} |")
     return "\n".join(lines)
 
 

@@ -239,6 +239,37 @@ def headline(report: dict) -> list[dict]:
     return rows
 
 
+# Issue 12's realism goals: the simulated contact area within 20 % of the real (median ratio), a head
+# imprint in at least 80 % of simulated images, and every region's mean load share within 5 percentage points.
+AREA_RATIO_TOLERANCE = 0.2
+AREA_RATIO_GOAL = (1.0 - AREA_RATIO_TOLERANCE, 1.0 + AREA_RATIO_TOLERANCE)
+HEAD_IMPRINT_GOAL = 0.8
+SHARE_GAP_GOAL_PP = 5.0
+
+
+def goal_verdicts(rows: list[dict]) -> list[dict]:
+    """Issue 12's goals checked on :func:`headline` rows: per posture and goal, ``{'posture', 'goal',
+    'value', 'target', 'met'}``, and for the share goal ``'interval'`` (the worst gap's 90 % interval
+    from resampling the real people, or None) and ``'interval_holds_goal'`` (whether that interval
+    reaches the goal: with few real people a gap just over 5 pp may not differ from it)."""
+    out = []
+    lo, hi = AREA_RATIO_GOAL
+    for r in rows:
+        g = r["posture"]
+        area, head, worst = r["area_ratio"], r["head_sim"], r["share_worst_pp"]
+        out.append({"posture": g, "goal": "contact area ratio", "value": area, "target": f"{lo:g}-{hi:g}",
+                    "met": bool(area is not None and np.isfinite(area) and lo <= area <= hi)})
+        out.append({"posture": g, "goal": "head imprint rate", "value": head, "target": f">= {HEAD_IMPRINT_GOAL:g}",
+                    "met": bool(head is not None and np.isfinite(head) and head >= HEAD_IMPRINT_GOAL)})
+        ci = r.get("share_worst_pp_interval")
+        out.append({"posture": g, "goal": "worst region share gap, pp", "value": worst,
+                    "target": f"<= {SHARE_GAP_GOAL_PP:g}",
+                    "met": bool(worst is not None and np.isfinite(worst) and worst <= SHARE_GAP_GOAL_PP),
+                    "interval": None if ci is None else [float(ci[0]), float(ci[1])],
+                    "interval_holds_goal": None if ci is None else bool(ci[0] <= SHARE_GAP_GOAL_PP)})
+    return out
+
+
 def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.RegionRule = R.DEFAULT_RULE,
                 examples: int = 3, seed: int = 0):
     """PNG at ``path``: per posture, box plots of contact area, mean and peak pressure and region

@@ -40,6 +40,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
+from pressurepose.eval.realism_report import AREA_RATIO_TOLERANCE, SHARE_GAP_GOAL_PP
 from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.calibrate import (PENALTY, FitResult, bed_params, minimize_cma, readings, sensor_penalty,
                                         with_params)
@@ -48,7 +49,7 @@ from pressurepose.sim.press import Heightfield, body_heightfield, press_heightfi
 from pressurepose.sim.tissue import BoneCores, bone_cores
 
 DEFAULT_FIT = ("stiffness", "tissue", "threshold")
-TOLERANCE = {"area": 0.2, "mean": 0.2, "peak": 0.3, "share": 0.05}
+TOLERANCE = {"area": AREA_RATIO_TOLERANCE, "mean": 0.2, "peak": 0.3, "share": SHARE_GAP_GOAL_PP / 100.0}
 
 
 @dataclass(frozen=True)
