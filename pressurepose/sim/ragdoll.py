@@ -85,7 +85,9 @@ SPINE_JOINTS = tuple(JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3"
 # resting test cannot tell a falling limb from one at rest and stops most supine bodies with their
 # hands in the air (docs/physics.md, "Relaxed limbs"). 3 s is the least damping at which the
 # ball-joint limit penalty stays stable at the settle's coarse 0.02 s step
-# (dt x LIMIT_STIFFNESS_FACTOR / damping-per-stiffness <= 2, see below). An option, not the default.
+# (dt x LIMIT_STIFFNESS_FACTOR / damping-per-stiffness <= 2, see below) for a joint reaching its limit;
+# one started far past it is damped as the paper's until back inside (settle._BallLimits). An option,
+# not the default.
 RELAXED_LIMB_DAMPING_S = 3.0
 LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{n}") for side in ("left", "right")
                     for n in ("hip", "knee", "ankle", "collar", "shoulder", "elbow", "wrist"))

@@ -69,7 +69,7 @@ from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
                                       cell_sink)
 from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
-from pressurepose.sim.ragdoll import (BED_BIT, LIMIT_STIFFNESS_FACTOR, RELAXED_LIMB_DAMPING_S,
+from pressurepose.sim.ragdoll import (BED_BIT, DAMPING_PER_STIFFNESS_S, LIMIT_STIFFNESS_FACTOR, RELAXED_LIMB_DAMPING_S,
                                       RELAXED_SPINE_STIFFNESS, RagdollIndex, RagdollParams, add_ragdoll,
                                       flexed_neck_home, limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec,
                                       qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
@@ -535,9 +535,15 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
 
 class _BallLimits:
     """Applies :func:`limit_torques` to the limited ball joints each step, cheaply: a joint whose
-    rotation angle is below the distance from 0 to the nearest face of its box cannot be outside it."""
+    rotation angle is below the distance from 0 to the nearest face of its box cannot be outside it.
 
-    def __init__(self, params: RagdollParams, index: RagdollIndex, factor: float):
+    The penalty is explicit and the joint's damping implicit, which is stable while
+    ``dt * factor / damping-per-stiffness < 2``. A joint damped less than the paper's
+    :data:`~pressurepose.sim.ragdoll.DAMPING_PER_STIFFNESS_S` x its stiffness (relaxed limbs) gets the
+    paper's damping in ``model`` while it lies outside its box, and its own back once inside
+    (:meth:`release` restores every joint)."""
+
+    def __init__(self, params: RagdollParams, index: RagdollIndex, factor: float, model: mujoco.MjModel):
         ball = index.ball[params.limited[index.ball] & (params.stiffness[index.ball] > 0)]
         self.qpos = index.qpos[ball][:, None] + np.arange(4)
         self.dof = index.dof[ball][:, None] + np.arange(3)
@@ -546,6 +552,20 @@ class _BallLimits:
         inside = np.minimum(-self.lower, self.upper)
         self.safe_cos = np.cos(np.clip(inside.min(axis=1), 0.0, np.pi) / 2)  # cos(half the safe angle)
         self.active = np.zeros(len(ball), dtype=bool)
+        self.model = model
+        self.own_damping = params.damping[ball]
+        self.limit_damping = np.maximum(self.own_damping, DAMPING_PER_STIFFNESS_S * params.stiffness[ball])
+        self.raises = self.limit_damping > self.own_damping
+
+    def _damp(self, joints: np.ndarray, damping: np.ndarray) -> None:
+        joints = joints & self.raises
+        if joints.any():
+            self.model.dof_damping[self.dof[joints]] = damping[joints][:, None]
+
+    def release(self) -> None:
+        """Every joint back to its own damping (the model is shared between bodies)."""
+        self._damp(np.ones(len(self.active), dtype=bool), self.own_damping)
+        self.active[:] = False
 
     def apply(self, data: mujoco.MjData) -> None:
         w0 = np.abs(data.qpos[self.qpos[:, 0]])
@@ -561,6 +581,8 @@ class _BallLimits:
         stale = self.active & ~check
         if stale.any():
             data.qfrc_applied[self.dof[stale]] = 0.0
+            self._damp(stale, self.own_damping)
+        self._damp(check & ~self.active, self.limit_damping)
         self.active = check
 
 
@@ -579,7 +601,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     kept = _posture_kept(start_posture, float(roll_angle(pose)), sm.support_geom >= 0)
     weight = params.total_mass * -m.opt.gravity[2]
     x_min, x_max, y_min, y_max = sm.cells.bounds
-    limits = _BallLimits(params, ri, cfg.limit_stiffness_factor)
+    limits = _BallLimits(params, ri, cfg.limit_stiffness_factor, m)
     cell_dof = sm.cell_index.dof.ravel()
     pelvis_floor = -cfg.fall_depth_m + radius[PELVIS]  # lowest allowed pelvis axis point
     dt = cfg.timestep_s
@@ -642,6 +664,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
                 prev_move = move
             prev_ends = ends
     m.opt.timestep = cfg.timestep_s
+    limits.release()
     if status in ("settled", "not_settled") and _troubled(d):
         status = "unstable"
     mujoco.mj_forward(m, d)  # positions, contacts and forces of the final state

@@ -549,3 +549,26 @@ def test_raised_arms_come_to_rest_on_the_bed_with_relaxed_limbs():
         low[damping] = ends[0, hands, :, 2].min(-1) - radius[hands]  # each hand's lowest point, m above the bed
     assert np.all(low[3.0] < 0.02)  # on (and into) the mattress, whose top is z = 0
     assert np.all(low[None] > 0.1)
+
+
+def test_relaxed_limbs_settle_a_body_drawn_past_its_limits():
+    """hands_behind_head draws shoulders past the ragdoll's limits. The explicit limit penalty is
+    unstable at the coarse step against relaxed limbs' damping, so a joint outside its box is damped
+    as the paper's until it is back inside; afterwards the shared model holds the body's own damping."""
+    from pressurepose.body.capsules import CAPSULE_JOINTS
+    from pressurepose.pose.sampler import body_rng, sample_one
+    from pressurepose.sim.settle import _MODELS
+
+    body = BodyModel("female")
+    drawn = sample_one("hands_behind_head", "f", body_rng(5, 10), True, body=body)
+    relaxed = dataclasses.replace(FAST, limb_damping_s=3.0)
+    params = ragdoll_params(body, drawn.betas, "female", limb_damping_s=3.0)
+    shoulders = [list(CAPSULE_JOINTS).index(j) for j in (16, 17)]
+    pose = drawn.pose.reshape(24, 3)[[16, 17]]
+    assert np.any((pose < params.lower[shoulders]) | (pose > params.upper[shoulders]))  # the premise
+    res = settle(body, drawn.betas, drawn.pose, drawn.transl, "female", BED, relaxed)
+    assert res.status == "settled"
+    ri = _MODELS[(BED, relaxed, False)].ragdoll
+    model = _MODELS[(BED, relaxed, False)].model
+    for k in ri.ball:
+        assert model.dof_damping[ri.dof[k]: ri.dof[k] + 3] == pytest.approx(np.full(3, params.damping[k]))
