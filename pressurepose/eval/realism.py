@@ -231,12 +231,15 @@ def load_profile(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE
 MATCH_BINS = np.arange(0.5, 1.15, 0.05)  # extent ratio bins (open at both ends) for match_by
 
 
-def match_by(sim_values, real_values, seed: int = 0, bins=MATCH_BINS) -> tuple[np.ndarray, float]:
+def match_by(sim_values, real_values, seed: int = 0, bins=MATCH_BINS,
+             draws: int | None = None) -> tuple[np.ndarray, float]:
     """Indices into ``sim_values`` (N,) of a resample whose histogram over ``bins`` (edges; values
-    beyond them fall in the end bins) follows ``real_values``' (M,): each bin gets a share of N
-    draws equal to its share of the real values, drawn with replacement from the simulated values
-    in it (seeded). Returns (indices, coverage): coverage is the share of the real values whose bin
-    holds any simulated value (the rest are not represented). NaNs are left out of both."""
+    beyond them fall in the end bins) follows ``real_values``' (M,): each bin gets a share of
+    ``draws`` (default: as many as there are finite simulated values) equal to its share of the real
+    values, drawn with replacement from the simulated values in it (seeded). More draws than values
+    make a mean over the resample depend less on the draw. Returns (indices, coverage): coverage is
+    the share of the real values whose bin holds any simulated value (the rest are not
+    represented). NaNs are left out of both."""
     s, r = np.asarray(sim_values, float).reshape(-1), np.asarray(real_values, float).reshape(-1)
     s_ok, r = np.flatnonzero(np.isfinite(s)), r[np.isfinite(r)]
     if not len(s_ok) or not len(r):
@@ -250,7 +253,9 @@ def match_by(sim_values, real_values, seed: int = 0, bins=MATCH_BINS) -> tuple[n
     coverage = float(covered.sum())
     if coverage == 0:
         raise BadInput("no simulated image falls in a bin that holds a real one; nothing to match")
-    n = len(s_ok)
+    n = len(s_ok) if draws is None else int(draws)
+    if n < 1:
+        raise BadInput(f"draws is {draws}; expected at least 1")
     quota = n * covered / coverage  # largest remainders: the counts sum to n
     counts = np.floor(quota).astype(int)
     counts[np.argsort(counts - quota)[: n - counts.sum()]] += 1

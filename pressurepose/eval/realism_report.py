@@ -127,6 +127,11 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
                     np.asarray(arr["height"], dtype=np.float64).reshape(-1) if "height" in arr else None)
 
 
+# The like-postures resample draws this many images per simulated image of a posture (with repeats), so
+# that its means hardly depend on the draw; its summaries' counts are draws, its headline counts distinct images.
+MATCH_DRAWS_PER_IMAGE = 20
+
+
 def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT_RULE, match: bool = False,
                    seed: int = 0) -> dict:
     """{'rule', 'mat', 'postures': {group: {'real': summary, 'simulated': summary, 'distance':
@@ -136,8 +141,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
     (:func:`~.realism.load_profile`). Each group's ``regions`` holds, per region, the median contact
     taxels and mean reading over them, real and simulated (:func:`~.realism.region_contact`).
 
-    ``match``: compare like postures: within each group the simulated images are resampled (seeded)
-    so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
+    ``match``: compare like postures: within each group the simulated images are resampled (seeded;
+    :data:`MATCH_DRAWS_PER_IMAGE` draws per image) so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
     long the body lies) follows the real images' (:func:`~.realism.match_by`), and each group also
     reports ``match`` {'coverage', 'extent_ratio_real', 'extent_ratio_sim_before', 'extent_ratio_sim',
     'distinct_sim_images'}. Region shares are
@@ -166,7 +171,7 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
         rsel, ssel = np.flatnonzero(real.posture == g), np.flatnonzero(sim.posture == g)
         weight = np.ones(len(ssel))
         if match:
-            pick, coverage = R.match_by(s_ratio[ssel], r_ratio[rsel], seed)
+            pick, coverage = R.match_by(s_ratio[ssel], r_ratio[rsel], seed, draws=MATCH_DRAWS_PER_IMAGE * len(ssel))
             entry["match"] = {"coverage": coverage, "extent_ratio_real": _median(r_ratio[rsel]),
                               "extent_ratio_sim_before": _median(s_ratio[ssel]),
                               "extent_ratio_sim": _median(s_ratio[ssel][pick]),
@@ -182,8 +187,8 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
             pass
         if real.height is not None and sim.height is not None:
             entry["profile"] = _profiles(real, sim, rsel, ssel, weight, rule)
-        sim_images = sim.pressure[ssel[pick] if match else ssel]  # the matched resample, repeats included
-        entry["regions"] = _region_contacts(real.pressure[rsel], sim_images, sim.mat, rule)
+        entry["regions"] = _region_contacts(real.pressure[rsel], sim.pressure[ssel], sim.mat, rule,
+                                            pick if match else None)
         out["postures"][g] = {"real": R.summarise(r), "simulated": R.summarise(s), "distance": R.compare(s, r),
                               **entry}
     return out
@@ -201,11 +206,14 @@ def _profiles(real: ImageSet, sim: ImageSet, rsel, ssel, weight, rule: R.RegionR
     return {"band": R.PROFILE_BAND, "real": mean(real, rsel, np.ones(len(rsel))), "simulated": mean(sim, ssel, weight)}
 
 
-def _region_contacts(real_images, sim_images, mat: MatSpec, rule: R.RegionRule) -> dict:
+def _region_contacts(real_images, sim_images, mat: MatSpec, rule: R.RegionRule, sim_pick=None) -> dict:
     """{region: {'taxels_real', 'taxels_sim', 'mmhg_real', 'mmhg_sim'}}: medians over the images of
     :func:`~.realism.region_contact` (contact taxels in the region, mean reading over them), which say
-    whether a region whose share differs touches over too little area or presses too hard."""
+    whether a region whose share differs touches over too little area or presses too hard. ``sim_pick``:
+    indices into ``sim_images`` of a resample (repeats included) to take the simulated medians over."""
     r, s = R.region_contact(real_images, mat, rule), R.region_contact(sim_images, mat, rule)
+    if sim_pick is not None:
+        s = s[np.asarray(sim_pick)]
     return {k: {"taxels_real": _median(r[:, j, 0]), "taxels_sim": _median(s[:, j, 0]),
                 "mmhg_real": _median(r[:, j, 1]), "mmhg_sim": _median(s[:, j, 1])}
             for j, k in enumerate(R.REGIONS)}
@@ -223,8 +231,9 @@ def headline(report: dict) -> list[dict]:
     rows = []
     for g, d in report["postures"].items():
         r, s = d["real"], d["simulated"]
+        n_sim = d["match"]["distinct_sim_images"] if "match" in d else s["contact_taxels"]["n"]
         rows.append({
-            "posture": g, "n_real": r["contact_taxels"]["n"], "n_sim": s["contact_taxels"]["n"],
+            "posture": g, "n_real": r["contact_taxels"]["n"], "n_sim": n_sim,
             "area_real": r["contact_taxels"]["median"], "area_sim": s["contact_taxels"]["median"],
             "area_ratio": d["distance"]["contact_taxels"]["median_ratio"],
             "head_real": r["head_imprint"]["rate"], "head_sim": s["head_imprint"]["rate"],

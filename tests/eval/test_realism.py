@@ -149,9 +149,11 @@ def test_realism_verb_end_to_end(tmp_path):
     np.savez(tmp_path / "sim.npz", pressure=sim, force=force, pose=pose, mass=force.sum((1, 2)) / 9.81,
              height=np.full(3, 1.75))
     assert main(args) == 0
-    sup = json.loads((out / "realism.json").read_text())["postures"]["supine"]
+    rep = json.loads((out / "realism.json").read_text())
+    sup = rep["postures"]["supine"]
     m = sup["match"]
     assert m["coverage"] > 0 and m["distinct_sim_images"] >= 1
+    assert rep["headline"][0]["n_sim"] == m["distinct_sim_images"]  # images, not draws of the resample
     assert set(sup["regions"]) == set(R.REGIONS)  # per region, over the matched resample
     # with both sets' statures known, the load along the body is reported too
     prof = sup["profile"]
@@ -207,6 +209,15 @@ def test_match_by_follows_the_real_histogram_and_reports_coverage():
     assert np.isclose(cov, 0.3)
     with pytest.raises(BadInput):
         R.match_by(np.array([np.nan]), real)
+    # more draws than values: the same histogram, and a mean over the resample that hardly depends on the draw
+    idx, _ = R.match_by(sim, real, seed=1, draws=2000)
+    assert len(idx) == 2000 and np.mean(sim[idx] > 0.9) == pytest.approx(0.7, abs=0.001)
+    values = np.random.default_rng(0).normal(size=100) + np.where(sim > 0.9, 1.0, 0.0)
+    spread = lambda draws: np.ptp([values[R.match_by(sim, real, seed=k, draws=draws)[0]].mean()  # noqa: E731
+                                   for k in range(20)])
+    assert spread(2000) < 0.5 * spread(100)
+    with pytest.raises(BadInput, match="draws"):
+        R.match_by(sim, real, draws=0)
 
 
 def test_extent_ratio_is_extent_over_stature():
