@@ -26,8 +26,9 @@ from pathlib import Path
 
 from benchmarks.bench_realism import DEFAULT_DATA
 from benchmarks.bench_relaxed_limbs import image_set, sets_of
-from benchmarks.bench_spine import PAPER, PARTITIONS
+from benchmarks.bench_spine import PAPER, PARTITIONS, seeds_and_count
 from benchmarks.results import write_section
+from pressurepose.errors import BadInput
 from pressurepose.eval.commands import format_goals
 from pressurepose.eval.realism_report import goal_verdicts, headline, load_real, realism_report
 from pressurepose.sim.bed import get_mat
@@ -40,11 +41,12 @@ def verdicts(real, sim, match: bool, seed: int = 0) -> list[dict]:
     return goal_verdicts(headline(realism_report(real, sim, match=match, seed=seed)))
 
 
-def worst_gap_range(real, sim, seeds=range(MATCH_SEEDS)) -> dict[str, tuple[float, float]]:
-    """Per posture, the smallest and largest like-postures worst share gap (pp) over matching ``seeds``."""
+def worst_gap_range(per_seed: list[list[dict]]) -> dict[str, tuple[float, float]]:
+    """Per posture, the smallest and largest worst share gap (pp) over :func:`verdicts` of several
+    matching seeds."""
     gaps: dict[str, list[float]] = {}
-    for seed in seeds:
-        for v in verdicts(real, sim, match=True, seed=seed):
+    for seed_verdicts in per_seed:
+        for v in seed_verdicts:
             if v["goal"].startswith("worst region share gap"):
                 gaps.setdefault(v["posture"], []).append(v["value"])
     return {g: (min(x), max(x)) for g, x in gaps.items()}
@@ -59,16 +61,15 @@ def main(argv=None) -> int:
                     help="where the simulated sets live (shared with bench_relaxed_limbs)")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
-    try:
-        seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
-    except ValueError:
-        raise SystemExit(f"--seeds {args.seeds!r}: expected whole numbers separated by commas") from None
-    if not seeds or args.count < 1:
-        raise SystemExit("--seeds needs at least one seed and --count a positive number")
+    seeds = seeds_and_count(args.seeds, args.count)
     mat = get_mat("boditrak_bt3510")
-    real = load_real(args.real, mat)
+    try:
+        real = load_real(args.real, mat)
+    except BadInput as e:
+        raise SystemExit(f"--real: {e}") from None
     sim = image_set(sets_of(args.out, PAPER, seeds, args.count), "simulated (default physics)")
     supine, lateral = int((sim.posture == "supine").sum()), int((sim.posture == "lateral").sum())
+    matched = [verdicts(real, sim, match=True, seed=seed) for seed in range(MATCH_SEEDS)]
     text = "\n".join([
         "### Issue 12's realism goals on the default physics (`benchmarks/bench_realism_goals.py`)", "",
         f"`python -m benchmarks.bench_realism_goals --count {args.count} --seeds {args.seeds}`; real images: "
@@ -80,9 +81,9 @@ def main(argv=None) -> int:
         "reaches 5 pp, a miss cannot be told from the goal with this many people.", "",
         "All simulated images as drawn (`realism`):", "", format_goals(verdicts(real, sim, match=False)), "",
         "Like postures compared (`realism --match-extent`: the simulated images resampled so that how long the "
-        "body lies follows the real images'):", "", format_goals(verdicts(real, sim, match=True)), "",
+        "body lies follows the real images'):", "", format_goals(matched[0]), "",
         f"The resample is seeded (seed 0 above). Over {MATCH_SEEDS} seeds the worst share gap spans "
-        + ", ".join(f"{g} {lo:.1f}-{hi:.1f} pp" for g, (lo, hi) in worst_gap_range(real, sim).items())
+        + ", ".join(f"{g} {lo:.1f}-{hi:.1f} pp" for g, (lo, hi) in worst_gap_range(matched).items())
         + ": the draw alone moves it by that much.", ""])
     print(text)
     if not args.no_write:

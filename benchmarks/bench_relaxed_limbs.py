@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_realism import DEFAULT_DATA
-from benchmarks.bench_spine import PAPER, PARTITIONS, paper_or_positive, row, simulate_set
+from benchmarks.bench_spine import PAPER, PARTITIONS, paper_or_positive, row, seeds_and_count, simulate_set
 from benchmarks.results import write_section
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.eval.realism import REGIONS, region_contact
@@ -105,12 +105,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
     names = paper_or_positive(args.damping, "--damping", "seconds")
-    try:
-        seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
-    except ValueError:
-        raise SystemExit(f"--seeds {args.seeds!r}: expected whole numbers separated by commas") from None
-    if not seeds or args.count < 1:
-        raise SystemExit("--seeds needs at least one seed and --count a positive number")
+    seeds = seeds_and_count(args.seeds, args.count)
     mat = get_mat("boditrak_bt3510")
     real = load_real(args.data, mat)
     paths = {n: sets_of(args.out, n, seeds, args.count) for n in names}

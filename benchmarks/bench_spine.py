@@ -42,6 +42,18 @@ PARTITIONS = ("general_supine", "general_lateral")
 PAPER = "paper"
 
 
+def seeds_and_count(seeds: str, count: int) -> list[int]:
+    """The whole numbers of a ``--seeds`` text (comma-separated); SystemExit naming it, or an empty
+    list or a ``--count`` below 1."""
+    try:
+        out = [int(s) for s in seeds.split(",") if s.strip()]
+    except ValueError:
+        raise SystemExit(f"--seeds {seeds!r}: expected whole numbers separated by commas") from None
+    if not out or count < 1:
+        raise SystemExit("--seeds needs at least one seed and --count a positive number")
+    return out
+
+
 def paper_or_positive(text: str, option: str, unit: str) -> list[str]:
     """The comma-separated names of ``option``: 'paper' or positive numbers (of ``unit``); SystemExit
     naming the first that is neither."""

@@ -30,7 +30,8 @@ def test_judges_the_sets_it_finds(tmp_path, capsys):
     assert out.count("| supine | contact area ratio |") == 2  # as drawn and like postures
 
 
-@pytest.mark.parametrize("argv, match", [(["--seeds", "a"], "--seeds 'a'"), (["--count", "0"], "--count")])
+@pytest.mark.parametrize("argv, match", [(["--seeds", "a"], "--seeds 'a'"), (["--count", "0"], "--count"),
+                                         (["--real", "/no/such/folder"], "--real: .*does not exist")])
 def test_bad_arguments_are_named(argv, match, tmp_path):
     with pytest.raises(SystemExit, match=match):
         main(argv + ["--no-write", "--out", str(tmp_path)])
