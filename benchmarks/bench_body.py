@@ -16,13 +16,17 @@ import time
 import numpy as np
 import torch
 
+from benchmarks.results import write_section
 from pressurepose.body import BodyModel
-from pressurepose.body.capsules import capsules_for, fit_capsules, point_capsule_distance, posed_capsules
+from pressurepose.body.capsules import (
+    capsules_for,
+    fit_capsules,
+    point_capsule_distance,
+    posed_capsules,
+)
 from pressurepose.body.masses import PAPER_VOXEL, RUNTIME_VOXEL, segment_masses
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
-from benchmarks.results import write_section
-
 
 
 def best_time(fn, repeats: int) -> float:

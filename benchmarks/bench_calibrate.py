@@ -18,10 +18,17 @@ import time
 
 import numpy as np
 
-from pressurepose.sim import get_bed
-from pressurepose.sim.calibrate import bed_params, calibrate, measurement_heightfields, readings, simulate, with_params
-from pressurepose.sim.calibration_data import CapsuleMeasurements
 from benchmarks.results import write_section
+from pressurepose.sim import get_bed
+from pressurepose.sim.calibrate import (
+    bed_params,
+    calibrate,
+    measurement_heightfields,
+    readings,
+    simulate,
+    with_params,
+)
+from pressurepose.sim.calibration_data import CapsuleMeasurements
 
 HIDDEN = {"stiffness": 7.0e4, "spread": 0.03, "c0": 3.0, "c1": 1.3, "c2": 0.004}
 

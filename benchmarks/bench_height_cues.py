@@ -57,7 +57,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
 
     from pressurepose.eval.realism_report import load_real, load_synthetic
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     mat = get_mat("boditrak_bt3510")
     synthetic = args.synthetic

@@ -156,7 +156,7 @@ def head_to_shoulder(images, mat, heights) -> np.ndarray:
 
 def side_lying(poses) -> np.ndarray:
     """(N,) bool for SMPL poses (N, 72): the root rolled within 45 degrees of either side."""
-    from pressurepose.sim.posture import roll_angle
+    from pressurepose.pose.posture import roll_angle
 
     return np.abs(np.abs(np.degrees(roll_angle(np.asarray(poses).reshape(-1, 72)))) - 90.0) <= 45.0
 
@@ -318,8 +318,14 @@ def side_by_side_figure(real_images, sim_images, mat, path: Path, n: int = 6, se
 def main(argv=None) -> int:
     args = parse_args(__doc__, argv)
     from pressurepose.eval import realism as R
-    from pressurepose.eval.realism_report import ImageSet, headline, load_real, load_synthetic, realism_report
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.eval.realism_report import (
+        ImageSet,
+        headline,
+        load_real,
+        load_synthetic,
+        realism_report,
+    )
+    from pressurepose.mat import get_mat
 
     mat = get_mat("boditrak_bt3510")
     real = load_real(args.data, mat)

@@ -116,8 +116,8 @@ def press_variants(paths, side_lying: bool) -> tuple[dict[str, np.ndarray], np.n
     is within 45 degrees of a side; bodies one variant cannot balance are left out of all."""
     from pressurepose.data.dataset import DatasetReader
     from pressurepose.data.physics import setup
+    from pressurepose.pose.posture import roll_angle
     from pressurepose.sim.press import PressFailed, press
-    from pressurepose.sim.posture import roll_angle
     from pressurepose.sim.tissue import body_bones
 
     images, joints = {v: [] for v in VARIANTS}, []
@@ -157,7 +157,7 @@ def main(argv=None) -> int:
     args = parse_args(__doc__, argv)
     from pressurepose.eval import realism as R
     from pressurepose.eval.realism_report import load_real
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     mat = get_mat("boditrak_bt3510")
     real = load_real(args.data, mat)

@@ -32,18 +32,19 @@ import time
 
 import torch
 
+from benchmarks.results import write_section
 from pressurepose.body.model import BodyModel, asset_path
 from pressurepose.body.toy import toy_body_arrays
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body, save_model
 from pressurepose.net.cnn import CNN_VARIANTS, flattened_size
 from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
 from pressurepose.net.losses import LossScales, loss_l1, loss_l2
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
-from pressurepose.net.pmr import MatGrid, pmr
-from benchmarks.results import write_section
+from pressurepose.net.pmr import pmr
 
-GRID = MatGrid(64, 27, 0.0286, 0.0286)
+GRID = custom_mat(64, 27, 0.0286, 0.0286)
 # (label, cnn variant, bf16 autocast) of the training options measured
 TRAIN_OPTIONS = (("paper CNN, float32 (default)", "paper", False), ("paper CNN, bf16 autocast", "paper", True),
                  ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True),

@@ -17,10 +17,9 @@ import time
 
 import numpy as np
 
+from benchmarks.results import write_section
 from pressurepose.sim import PressFailed, get_bed, press
 from pressurepose.sim.press import body_heightfield
-from benchmarks.results import write_section
-
 
 
 def stand_in_body(bed):

@@ -33,8 +33,13 @@ DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / 
 
 def pitch_fit(data: Path) -> dict:
     from pressurepose.data.readers.real import read_real
-    from pressurepose.data.realprep import (HEAD_HEEL_OFFSET_M, contact_extent_rows, fit_pitch, remove_baseline,
-                                            repair_taxels)
+    from pressurepose.data.realprep import (
+        HEAD_HEEL_OFFSET_M,
+        contact_extent_rows,
+        fit_pitch,
+        remove_baseline,
+        repair_taxels,
+    )
 
     real = read_real(data)
     sel = np.isin(real.detail, ("supine", "supine star", "supine hands crossed"))

@@ -30,9 +30,13 @@ from benchmarks.bench_spine import PAPER, PARTITIONS, seeds_and_count
 from benchmarks.results import write_section
 from pressurepose.errors import BadInput
 from pressurepose.eval.commands import format_goals
-from pressurepose.eval.realism_report import goal_verdicts, headline, load_real, realism_report
-from pressurepose.sim.bed import get_mat
-
+from pressurepose.eval.realism_report import (
+    goal_verdicts,
+    headline,
+    load_real,
+    realism_report,
+)
+from pressurepose.mat import get_mat
 
 MATCH_SEEDS = 5  # resamples of the like-postures comparison, to show how much the draw alone moves it
 

@@ -26,12 +26,19 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_realism import DEFAULT_DATA
-from benchmarks.bench_spine import PAPER, PARTITIONS, paper_or_positive, row, seeds_and_count, simulate_set
+from benchmarks.bench_spine import (
+    PAPER,
+    PARTITIONS,
+    paper_or_positive,
+    row,
+    seeds_and_count,
+    simulate_set,
+)
 from benchmarks.results import write_section
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.eval.realism import REGIONS, region_contact
 from pressurepose.eval.realism_report import ImageSet, load_real, load_synthetic
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 from pressurepose.sim.settle import SettleConfig
 
 HANDS = tuple(JOINT_NAMES.index(n) for n in ("left_wrist", "right_wrist"))

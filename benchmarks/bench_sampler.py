@@ -16,12 +16,12 @@ import os
 import platform
 import time
 
+from benchmarks.results import write_section
 from pressurepose.body import BodyModel
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.pose import sample_bodies
 from pressurepose.pose.samples import LIMB_CAUSES
-from benchmarks.results import write_section
 
 # (partition, limbs_on_bed, bodies at scale 1): the partitions of the paper's table (appendix A.7)
 RUNS = [

@@ -31,7 +31,11 @@ import numpy as np
 from benchmarks.results import write_section
 from pressurepose.pose import SamplerConfig, sample_bodies
 from pressurepose.pose.config import PAPER_SETTINGS, paper_sampler
-from pressurepose.pose.fidelity import SAMPLED_DOFS, marginal_distances, pose_from_indexed
+from pressurepose.pose.fidelity import (
+    SAMPLED_DOFS,
+    marginal_distances,
+    pose_from_indexed,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 OFFICIAL_NAME = "supine_f_2700.npy"

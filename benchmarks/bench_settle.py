@@ -24,14 +24,20 @@ import time
 import mujoco
 import numpy as np
 
+from benchmarks.results import write_section
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import capsules_for
 from pressurepose.body.masses import segment_masses
 from pressurepose.pose.sampler import sample_bodies
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.ragdoll import ragdoll_params
-from pressurepose.sim.settle import STATUSES, SettleConfig, calibrate_stiffness, settle, settle_cells
-from benchmarks.results import write_section
+from pressurepose.sim.settle import (
+    STATUSES,
+    SettleConfig,
+    calibrate_stiffness,
+    settle,
+    settle_cells,
+)
 
 PARTITIONS = ("general", "general_supine", "prone_hands_up")
 

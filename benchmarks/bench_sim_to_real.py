@@ -218,7 +218,7 @@ def round_trip(x: np.ndarray, weight_kg: np.ndarray, model_mat, full: bool = Tru
     full: through the whole evaluate-real path (:func:`pressurepose.data.realprep.prepare`: baseline,
     repair, weight normalisation, resampling, clipping), else resampling only."""
     from pressurepose.data.realprep import prepare, to_model_mat
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     fsa = get_mat("fsa_softflex_2048")
     on_fsa = to_model_mat(x, model_mat, fsa)
@@ -455,8 +455,8 @@ def main(argv=None) -> int:
     import torch
 
     from pressurepose.files import save_figure_atomic, write_json_atomic
+    from pressurepose.mat import MatSpec
     from pressurepose.net.infer import resolve_model
-    from pressurepose.sim.bed import MatSpec
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA))

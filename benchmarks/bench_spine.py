@@ -33,9 +33,15 @@ from benchmarks.bench_realism import DEFAULT_DATA
 from benchmarks.results import write_section
 from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
-from pressurepose.eval.realism_report import ImageSet, headline, load_real, load_synthetic, realism_report
+from pressurepose.eval.realism_report import (
+    ImageSet,
+    headline,
+    load_real,
+    load_synthetic,
+    realism_report,
+)
 from pressurepose.files import atomic_write
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 from pressurepose.sim.settle import SettleConfig
 
 PARTITIONS = ("general_supine", "general_lateral")

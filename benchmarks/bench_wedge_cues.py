@@ -84,7 +84,7 @@ def read_propped(net, sets: dict) -> list[dict]:
     """The model's reading of the propped bodies with and without the wedge's print."""
     from pressurepose.eval.posture import posture_of
     from pressurepose.net.infer import estimate
-    from pressurepose.sim.posture import roll_angle
+    from pressurepose.pose.posture import roll_angle
 
     pose = np.concatenate([s["pose"] for s in sets.values()])
     joints = np.concatenate([s["joints"] for s in sets.values()])
@@ -140,7 +140,7 @@ def real_inputs(net, folder: Path):
 def read_squeezed(net, x, genders, labels, details, factors) -> list[dict]:
     from pressurepose.eval.posture import posture_correct, posture_of
     from pressurepose.net.infer import estimate
-    from pressurepose.sim.posture import roll_angle
+    from pressurepose.pose.posture import roll_angle
 
     rows = []
     for f in tqdm(factors, desc="squeezed real images", unit="factor"):
@@ -202,8 +202,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from pressurepose.eval import realism as R
     from pressurepose.eval.realism_report import load_synthetic
+    from pressurepose.mat import MatSpec
     from pressurepose.net.infer import resolve_model
-    from pressurepose.sim.bed import MatSpec
 
     factors = [float(v) for v in args.squeeze.split(",")]
     net = resolve_model(args.model)

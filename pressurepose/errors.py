@@ -1,5 +1,9 @@
-"""The one error type users see for bad input: it names the input and what was expected; and how to
-say which recorded settings differ."""
+"""The one error type users see for bad input (it names the input and what was expected), checks that
+raise it for numbers, and how to say which recorded settings differ."""
+
+import math
+
+import numpy as np
 
 
 class BadInput(ValueError):
@@ -23,3 +27,23 @@ def record_difference(old: dict, new: dict, most: int = 4) -> str:
             continue
         diffs += [f"{part}.{k} {a.get(k)!r} -> {b.get(k)!r}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
     return ", ".join(diffs[:most]) + (", ..." if len(diffs) > most else "")
+
+
+def require_finite(name: str, v) -> None:
+    """BadInput unless ``v`` is a finite real number (a bool is not)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
+        raise BadInput(f"{name} is {v!r}; expected a finite number")
+
+
+def require_positive(name: str, v) -> None:
+    """BadInput unless ``v`` is a finite number > 0."""
+    require_finite(name, v)
+    if v <= 0:
+        raise BadInput(f"{name} is {v!r}; expected a positive number")
+
+
+def require_non_negative(name: str, v) -> None:
+    """BadInput unless ``v`` is a finite number >= 0."""
+    require_finite(name, v)
+    if v < 0:
+        raise BadInput(f"{name} is {v!r}; expected zero or a positive number")

@@ -392,7 +392,7 @@ def test_simulate_keeps_finished_bodies_when_killed_and_resumes(tmp_path, capsys
 
 
 def test_calibrate_refuses_objects_off_the_mat():
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
     from pressurepose.sim.calibration_data import CapsuleMeasurements
 
     mat = get_mat("boditrak_bt3510")

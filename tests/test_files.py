@@ -5,7 +5,12 @@ import json
 import pytest
 
 from pressurepose.errors import BadInput
-from pressurepose.files import atomic_write, check_output_path, save_figure_atomic, write_json_atomic
+from pressurepose.files import (
+    atomic_write,
+    check_output_path,
+    save_figure_atomic,
+    write_json_atomic,
+)
 
 
 def test_failed_write_keeps_previous_file_and_leaves_no_temp(tmp_path):

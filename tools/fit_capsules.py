@@ -20,8 +20,14 @@ import numpy as np
 
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import (
-    fit_capsules, fit_regressors, point_capsule_distance, posed_capsules, regressed_capsules,
-    regressor_path, save_regressors)
+    fit_capsules,
+    fit_regressors,
+    point_capsule_distance,
+    posed_capsules,
+    regressed_capsules,
+    regressor_path,
+    save_regressors,
+)
 from pressurepose.body.model import canonical_gender
 
 

@@ -261,7 +261,12 @@ def install(run: Path, assets: Path = ASSETS) -> None:
     estimates moved by at most 1.4 mm on 40 test images) in one file per module, each small enough for git."""
     import torch
 
-    from pressurepose.net.checkpoint import body_model, load_model, read_model_files, save_model
+    from pressurepose.net.checkpoint import (
+        body_model,
+        load_model,
+        read_model_files,
+        save_model,
+    )
 
     specs = read_model_files(run)[0]["bodies"]
     bodies = tuple(body_model(specs[g]["spec"]) for g in ("female", "male"))

@@ -23,7 +23,12 @@ BETA_LIMIT = 10.0  # |beta| beyond this is far outside any training data of a bo
 
 def run_view_body(args) -> int:
     from pressurepose.body import BodyModel
-    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, read_npy, save_figure_atomic
+    from pressurepose.files import (
+        FIGURE_SUFFIXES,
+        check_output_path,
+        read_npy,
+        save_figure_atomic,
+    )
     from pressurepose.viz.body_figure import body_figure
 
     check_output_path(args.out, "--out", suffixes=FIGURE_SUFFIXES)

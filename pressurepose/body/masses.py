@@ -34,7 +34,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.body.capsules import NUM_CAPSULES, Capsules, capsule_endpoints, capsules_for, check_betas
+from pressurepose.body.capsules import (
+    NUM_CAPSULES,
+    Capsules,
+    capsule_endpoints,
+    capsules_for,
+    check_betas,
+)
 from pressurepose.body.mesh import mesh_volume
 from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput

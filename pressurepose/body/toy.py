@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.joints import NUM_BETAS, NUM_JOINTS, PARENTS
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.smpl_io import SmplArrays
 
 # Approximate rest joints of SMPL's mean body, in the project frame (z up, facing -y, left = +x), m.

@@ -107,11 +107,11 @@ def run_generate(args: argparse.Namespace) -> int:
     from pressurepose.data.dataset import SPLITS
     from pressurepose.data.pipeline import GenerationError, generate
     from pressurepose.data.producers import check_options
-    from pressurepose.pose.commands import body_settings
     from pressurepose.data.recipes import load_recipe
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.store import MANIFEST
     from pressurepose.files import check_output_path
+    from pressurepose.pose.commands import body_settings
     from pressurepose.sim.bed import bed_for
 
     check_output_path(args.out, "--out", directory=True)

@@ -14,11 +14,23 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from pressurepose.data.schema import GENDERS, IMAGE_FIELDS, LABEL_FIELDS, PARTITIONS, GenerationConfig, Sample
-from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, read_shard_arrays, samples_from_arrays,
-                                     verify_shard)
+from pressurepose.data.schema import (
+    GENDERS,
+    IMAGE_FIELDS,
+    LABEL_FIELDS,
+    PARTITIONS,
+    GenerationConfig,
+    Sample,
+)
+from pressurepose.data.store import (
+    MANIFEST,
+    Manifest,
+    ShardRecord,
+    read_shard_arrays,
+    samples_from_arrays,
+    verify_shard,
+)
 from pressurepose.errors import BadInput
-
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,15 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
 
-from pressurepose.data.pipeline import (AttemptsExhausted, GenerationError, PartResult, Progress, WorkUnit,
-                                        format_failure, run_unit)
+from pressurepose.data.pipeline import (
+    AttemptsExhausted,
+    GenerationError,
+    PartResult,
+    Progress,
+    WorkUnit,
+    format_failure,
+    run_unit,
+)
 from pressurepose.data.producers import PRODUCERS
 from pressurepose.errors import BadInput
 

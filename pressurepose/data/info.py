@@ -12,7 +12,7 @@ from pressurepose.data.dataset import DatasetReader
 from pressurepose.data.store import read_shard_arrays
 from pressurepose.errors import BadInput
 from pressurepose.files import save_figure_atomic
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 GRAVITY = 9.81
 

@@ -28,11 +28,22 @@ from typing import Callable
 from pressurepose import __version__
 from pressurepose.data.producers import Rejected, attempt_rng, resolve_producer
 from pressurepose.data.schema import GenerationConfig, Sample
-from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, is_set_aside_name,
-                                     is_temp_name, set_aside_path, sha256_bytes, shard_name, stage_bytes,
-                                     verify_shard)
+from pressurepose.data.store import (
+    MANIFEST,
+    Manifest,
+    ShardRecord,
+    commit,
+    encode_shard,
+    is_set_aside_name,
+    is_temp_name,
+    set_aside_path,
+    sha256_bytes,
+    shard_name,
+    stage_bytes,
+    verify_shard,
+)
 from pressurepose.errors import BadInput, record_difference
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 
 class GenerationError(RuntimeError):

@@ -41,7 +41,7 @@ import numpy as np
 
 from pressurepose.data.resample import MMHG_PA, resample_pressure
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import MatSpec, get_mat
+from pressurepose.mat import MatSpec, get_mat
 
 G = 9.80665                # m/s^2
 HEAD_HEEL_OFFSET_M = 0.06  # standing height minus supine head-to-heel contact extent (see module doc)

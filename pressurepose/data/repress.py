@@ -38,8 +38,19 @@ import numpy as np
 from pressurepose.data.dataset import find_datasets
 from pressurepose.data.pipeline import check_shards, producer_provenance
 from pressurepose.data.schema import GenerationConfig, Sample
-from pressurepose.data.store import (MANIFEST, Manifest, ShardRecord, commit, encode_shard, read_shard_arrays,
-                                     samples_from_arrays, sha256_bytes, shard_name, stage_bytes, verify_shard)
+from pressurepose.data.store import (
+    MANIFEST,
+    Manifest,
+    ShardRecord,
+    commit,
+    encode_shard,
+    read_shard_arrays,
+    samples_from_arrays,
+    sha256_bytes,
+    shard_name,
+    stage_bytes,
+    verify_shard,
+)
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec
 

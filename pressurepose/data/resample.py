@@ -4,7 +4,7 @@ Each source taxel's force is spread evenly over its cell; a destination taxel re
 the part of every source cell it overlaps (area weighting). The weights separate into a row factor
 and a column factor, so a batch is two small matrix products. The total force is kept exactly when
 the destination covers the source; force falling outside the destination is lost, as it would be
-on a smaller real mat. Grids are :class:`pressurepose.sim.bed.MatSpec` (``get_mat(name)`` for
+on a smaller real mat. Grids are :class:`pressurepose.mat.MatSpec` (``get_mat(name)`` for
 presets, ``custom_mat`` for any other).
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import MatSpec
+from pressurepose.mat import MatSpec
 
 MMHG_PA = 133.322  # pascals per mmHg
 

@@ -42,9 +42,9 @@ from typing import Any
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.mat import get_mat
 from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
 from pressurepose.pose.partitions import get_partition
-from pressurepose.sim.bed import get_mat
 
 # The paper's partitions (appendix A.7; defined in pressurepose.pose.partitions): general,
 # general_supine, hands_behind_head, prone_hands_up, supine_crossed_legs, supine_straight_limbs.

@@ -32,7 +32,12 @@ import h5py
 import numpy as np
 
 from pressurepose import __version__
-from pressurepose.data.schema import IMAGE_FIELDS, LABEL_FIELDS, GenerationConfig, Sample
+from pressurepose.data.schema import (
+    IMAGE_FIELDS,
+    LABEL_FIELDS,
+    GenerationConfig,
+    Sample,
+)
 from pressurepose.errors import BadInput
 from pressurepose.files import commit, stage, write_bytes_atomic
 

@@ -24,7 +24,7 @@ from pressurepose.body.toy import TOY_REST_JOINTS
 from pressurepose.data.producers import Rejected
 from pressurepose.data.resample import MMHG_PA
 from pressurepose.data.schema import GenerationConfig, Sample
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 GRAVITY = 9.81
 DEPTH_EMPTY_M = 1.0  # depth where no body is above a taxel, as pressurepose.sim.press reports it

@@ -28,9 +28,13 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
 def run_evaluate(args) -> int:
     from pressurepose.errors import BadInput
     from pressurepose.eval.report import evaluate, format_table
-    from pressurepose.files import check_output_path, write_json_atomic, write_text_atomic
-    from pressurepose.net.data import load_dataset
+    from pressurepose.files import (
+        check_output_path,
+        write_json_atomic,
+        write_text_atomic,
+    )
     from pressurepose.net.commands import body_specs
+    from pressurepose.net.data import load_dataset
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.train import resolve_device
 
@@ -103,9 +107,20 @@ def run_evaluate_real(args) -> int:
 
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
-    from pressurepose.eval.real import (RealEvalConfig, evaluate_real, format_confusion, format_real_table,
-                                        format_subject_table, gallery_figure)
-    from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic, write_text_atomic
+    from pressurepose.eval.real import (
+        RealEvalConfig,
+        evaluate_real,
+        format_confusion,
+        format_real_table,
+        format_subject_table,
+        gallery_figure,
+    )
+    from pressurepose.files import (
+        check_output_path,
+        save_figure_atomic,
+        write_json_atomic,
+        write_text_atomic,
+    )
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.train import resolve_device
 
@@ -189,9 +204,15 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_realism(args) -> int:
-    from pressurepose.eval.realism_report import (draw_report, goal_verdicts, headline, load_real, load_synthetic,
-                                                  realism_report)
     from pressurepose.errors import BadInput
+    from pressurepose.eval.realism_report import (
+        draw_report,
+        goal_verdicts,
+        headline,
+        load_real,
+        load_synthetic,
+        realism_report,
+    )
     from pressurepose.files import check_output_path, write_json_atomic
 
     out = check_output_path(args.out, "--out", directory=True)

@@ -52,7 +52,7 @@ def baseline_pose() -> np.ndarray:
 
 
 def baseline_body(forward, grid, num_betas: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The baseline body on ``grid`` (a MatGrid): (betas (S,), pose (72,), transl (3,)) with the
+    """The baseline body on ``grid`` (a MatSpec): (betas (S,), pose (72,), transl (3,)) with the
     mesh's bounding box centred on the mat and its lowest point on the unloaded mattress (z = 0).
 
     forward: ``(betas (1, S), pose (1, 72), transl (1, 3)) -> (verts (1, V, 3), joints)``, e.g. a

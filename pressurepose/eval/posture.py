@@ -1,7 +1,7 @@
 """Posture class and stature of an estimated body, for comparing estimates with real labels.
 
 Posture: from the body's root orientation (its roll about its own long axis,
-:mod:`pressurepose.sim.posture`): 'supine', 'left', 'right' or 'prone', where 'left' / 'right' is the
+:mod:`pressurepose.pose.posture`): 'supine', 'left', 'right' or 'prone', where 'left' / 'right' is the
 side the person lies on (left side down: roll +90 deg). A label 'lateral' (either side) matches
 'left' or 'right'.
 
@@ -16,7 +16,7 @@ import numpy as np
 
 from pressurepose.body.mesh import mesh_volume
 from pressurepose.errors import BadInput
-from pressurepose.sim.posture import posture_classes
+from pressurepose.pose.posture import posture_classes
 
 CLASSES = ("supine", "left", "right", "prone")
 DENSITY = 1000.0  # kg/m^3, as BodyModel.mass

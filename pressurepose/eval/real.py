@@ -22,9 +22,15 @@ import numpy as np
 from pressurepose.data.readers.real import RealImages
 from pressurepose.data.realprep import prepare
 from pressurepose.errors import BadInput
-from pressurepose.eval.posture import body_stature_mass, confusion, contact_iou, posture_correct, posture_of
-from pressurepose.sim.bed import MatSpec
-from pressurepose.sim.posture import roll_angle
+from pressurepose.eval.posture import (
+    body_stature_mass,
+    confusion,
+    contact_iou,
+    posture_correct,
+    posture_of,
+)
+from pressurepose.mat import MatSpec
+from pressurepose.pose.posture import roll_angle
 
 GENDER_CHOICES = ("f", "m", "both")
 

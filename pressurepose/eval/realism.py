@@ -2,7 +2,7 @@
 distances between simulated and real sets.
 
 Every function works on pressure images ``(N, rows, cols)`` in mmHg (row 0 at the head end) with
-the mat's geometry (:class:`~pressurepose.sim.bed.MatSpec`); none needs joint labels, so real and
+the mat's geometry (:class:`~pressurepose.mat.MatSpec`); none needs joint labels, so real and
 simulated images are measured by the same rule.
 
 Per image (:func:`image_stats`):
@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import MatSpec
+from pressurepose.mat import MatSpec
 
 GRAVITY = 9.81  # as pressurepose.sim.sensor
 REGIONS = ("head", "shoulders", "back", "pelvis", "thighs", "calves", "heels")

@@ -21,7 +21,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
-from pressurepose.sim.bed import MATS, MatSpec, get_mat
+from pressurepose.mat import MATS, MatSpec, get_mat
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,7 +15,7 @@ from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
-from pressurepose.sim.posture import roll_angle
+from pressurepose.pose.posture import roll_angle
 
 GENDER_NAMES = ("f", "m")
 ROWS = (("mod2", "PressureNet (Mod1 + Mod2)"), ("mod1", "Mod1 alone"), ("baseline", "mean-pose baseline (BL)"))

@@ -63,13 +63,12 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_train(args) -> int:
+    from pressurepose.errors import BadInput
+    from pressurepose.files import check_output_path
     from pressurepose.net.checkpoint import body_model
     from pressurepose.net.data import load_dataset
     from pressurepose.net.noise import NoiseConfig
     from pressurepose.net.train import TrainConfig, train
-
-    from pressurepose.errors import BadInput
-    from pressurepose.files import check_output_path
 
     check_output_path(args.out, "--out", directory=True)
     if args.limit is not None and args.limit < 1:
@@ -171,8 +170,14 @@ def run_infer(args) -> int:
 
     from pressurepose.errors import BadInput
     from pressurepose.files import check_output_path
-    from pressurepose.net.infer import (check_pressure, estimate, load_genders, load_pressure, pressure_warnings,
-                                        resolve_model)
+    from pressurepose.net.infer import (
+        check_pressure,
+        estimate,
+        load_genders,
+        load_pressure,
+        pressure_warnings,
+        resolve_model,
+    )
 
     check_output_path(args.out, "--out", directory=True)
     if args.max_figures < 0:

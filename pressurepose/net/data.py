@@ -9,7 +9,7 @@ import numpy as np
 import torch
 
 from pressurepose.errors import BadInput
-from pressurepose.net.pmr import MatGrid
+from pressurepose.mat import MatSpec, custom_mat
 
 FIELDS = ("pressure", "betas", "pose", "transl", "joints")
 
@@ -20,7 +20,7 @@ class LoadedData:
     (plus ``partition`` (N,) int64 indexing ``partition_names``), its mat grid and mat name."""
 
     tensors: dict[str, torch.Tensor]
-    grid: MatGrid
+    grid: MatSpec
     mat: str
     partition_names: tuple[str, ...]
 
@@ -43,7 +43,7 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
         return _load_pack(Path(path), limit)  # needs neither the simulator nor h5py (a GPU machine may lack them)
     from pressurepose.data.dataset import DatasetReader, check_one_split
     from pressurepose.data.schema import PARTITIONS
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     check_one_split(path)
     reader = DatasetReader(path, verify=verify)
@@ -53,7 +53,7 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
     tensors = {k: torch.from_numpy(np.ascontiguousarray(arrays[k][sl])) for k in FIELDS}
     tensors["gender"] = torch.from_numpy(arrays["gender"][sl].astype(np.int64))  # 0 'f', 1 'm'
     tensors["partition"] = torch.from_numpy(arrays["partition"][sl].astype(np.int64))
-    return LoadedData(tensors, MatGrid.from_mat(get_mat(mat_name)), mat_name, tuple(PARTITIONS))
+    return LoadedData(tensors, get_mat(mat_name), mat_name, tuple(PARTITIONS))
 
 
 PACK_FORMAT = "pressurepose-training-pack-1"
@@ -106,4 +106,5 @@ def _load_pack(path: Path, limit: int | None) -> LoadedData:
     tensors = {k: torch.from_numpy(np.ascontiguousarray(arrays[k][sl], dtype=np.float32)) for k in FIELDS}
     for k in ("gender", "partition"):
         tensors[k] = torch.from_numpy(arrays[k][sl].astype(np.int64))
-    return LoadedData(tensors, MatGrid(rows, cols, float(grid[2]), float(grid[3])), str(arrays["mat"]), names)
+    mat = str(arrays["mat"])
+    return LoadedData(tensors, custom_mat(rows, cols, float(grid[2]), float(grid[3]), name=mat), mat, names)

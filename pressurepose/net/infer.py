@@ -17,12 +17,18 @@ import numpy as np
 import torch
 
 from pressurepose.errors import BadInput
-from pressurepose.files import atomic_write, read_npy, save_figure_atomic, save_npz_atomic, write_json_atomic
+from pressurepose.files import (
+    atomic_write,
+    read_npy,
+    save_figure_atomic,
+    save_npz_atomic,
+    write_json_atomic,
+)
+from pressurepose.mat import MatSpec
 from pressurepose.net.model import GENDER_CODES, PressureNet
-from pressurepose.net.pmr import MatGrid
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
-SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.sim.bed.MATS)
+SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
 
 
 @dataclass
@@ -47,7 +53,7 @@ class Estimate:
     contact: np.ndarray
     gender: list[str]
     mod1_joints: np.ndarray
-    grid: MatGrid
+    grid: MatSpec
     mirror: bool = False
 
     def __len__(self) -> int:

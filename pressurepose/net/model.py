@@ -17,9 +17,10 @@ from dataclasses import asdict, dataclass, field
 import torch
 from torch import nn
 
+from pressurepose.mat import MatSpec
 from pressurepose.net.cnn import PAPER_CHANNELS, PressureCNN
 from pressurepose.net.outputs import BodyParams, OutputConfig, OutputLayer
-from pressurepose.net.pmr import MatGrid, PMRConfig, PMRMaps, pmr
+from pressurepose.net.pmr import PMRConfig, PMRMaps, pmr
 from pressurepose.net.transforms import InputConfig, input_channels, map_channels
 
 GENDER_CODES = {"f": 0, "female": 0, "m": 1, "male": 1}
@@ -45,7 +46,7 @@ class NetConfig:
     :data:`pressurepose.net.cnn.CNN_VARIANTS` for lighter ones).
     """
 
-    grid: MatGrid
+    grid: MatSpec
     outputs: OutputConfig
     inputs: InputConfig = field(default_factory=InputConfig)
     pmr: PMRConfig = field(default_factory=PMRConfig)
@@ -65,7 +66,7 @@ class NetConfig:
         out = OutputConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
         if "cnn_channels" in d:  # absent from models saved before it existed: the paper's
             d["cnn_channels"] = tuple(int(c) for c in d["cnn_channels"])
-        return NetConfig(grid=MatGrid(**d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
+        return NetConfig(grid=MatSpec.from_dict(d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
                          pmr=PMRConfig(**d.pop("pmr")), **d)
 
 

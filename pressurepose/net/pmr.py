@@ -3,7 +3,7 @@ the mat's grid from a posed mesh, differentiably and without Python loops over v
 
 Given vertices (B, V, 3) in the bed frame (metres; z = 0 is the unloaded mattress top; taxel
 (r, c) covers x in [c, c+1) * pitch_col, y in [r, r+1) * pitch_row, as
-:class:`pressurepose.sim.bed.MatSpec`):
+:class:`pressurepose.mat.MatSpec`):
 
 1. each vertex falls in the taxel under it; vertices off the mat are ignored;
 2. per taxel, the lowest vertex's height is the *depth* (negative = sunk into the mattress), a
@@ -27,29 +27,7 @@ from dataclasses import dataclass
 import torch
 import torch.nn.functional as F
 
-
-@dataclass(frozen=True)
-class MatGrid:
-    """The taxel grid PMR draws on: rows along the bed (y), cols across (x), pitches in metres."""
-
-    rows: int
-    cols: int
-    pitch_row_m: float
-    pitch_col_m: float
-
-    @staticmethod
-    def from_mat(mat) -> "MatGrid":
-        """From a :class:`pressurepose.sim.bed.MatSpec` (or anything with the same fields)."""
-        return MatGrid(int(mat.rows), int(mat.cols), float(mat.pitch_row_m), float(mat.pitch_col_m))
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.rows, self.cols)
-
-    @property
-    def size_m(self) -> tuple[float, float]:
-        """(width across x, length along y) of the grid, metres."""
-        return (self.cols * self.pitch_col_m, self.rows * self.pitch_row_m)
+from pressurepose.mat import MatSpec
 
 
 @dataclass(frozen=True)
@@ -78,7 +56,7 @@ class PMRMaps:
 _NEIGHBOURS = torch.tensor([[1.0, 1.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
 
 
-def lowest_vertex_map(verts: torch.Tensor, grid: MatGrid, empty_value: float) -> tuple[torch.Tensor, torch.Tensor]:
+def lowest_vertex_map(verts: torch.Tensor, grid: MatSpec, empty_value: float) -> tuple[torch.Tensor, torch.Tensor]:
     """Per-taxel minimum vertex height (B, R, C) and the mask (B, R, C) of taxels holding a vertex.
 
     Taxels without a vertex hold ``empty_value``.
@@ -113,7 +91,7 @@ def fill_empty(values: torch.Tensor, filled: torch.Tensor, passes: int, empty_va
     return torch.where(m > 0, x, torch.full_like(x, float(empty_value)))[:, 0]
 
 
-def sink_depth(verts: torch.Tensor, grid: MatGrid, config: PMRConfig = PMRConfig()) -> torch.Tensor:
+def sink_depth(verts: torch.Tensor, grid: MatSpec, config: PMRConfig = PMRConfig()) -> torch.Tensor:
     """Depth map (B, R, C), metres: height of the body's lowest point over each taxel above the
     unloaded mattress top (negative = sunk in); see the module docstring."""
     low, filled = lowest_vertex_map(verts, grid, config.empty_depth_m)
@@ -127,7 +105,7 @@ def maps_from_depth(depth: torch.Tensor, config: PMRConfig = PMRConfig()) -> PMR
                    contact=(depth < 0).to(depth.dtype))
 
 
-def pmr(verts: torch.Tensor, grid: MatGrid, config: PMRConfig = PMRConfig()) -> PMRMaps:
+def pmr(verts: torch.Tensor, grid: MatSpec, config: PMRConfig = PMRConfig()) -> PMRMaps:
     """All PMR maps of meshes verts (B, V, 3) on ``grid`` (computed in at least float32)."""
     if verts.dtype in (torch.float16, torch.bfloat16):
         verts = verts.float()

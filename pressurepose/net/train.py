@@ -43,14 +43,15 @@ import torch
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput, record_difference
 from pressurepose.files import atomic_write, write_text_atomic
+from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.cnn import CNN_VARIANTS
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
+from pressurepose.net.mirror import mirror_some
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
-from pressurepose.net.pmr import MatGrid, PMRConfig, pmr
-from pressurepose.net.mirror import mirror_some
+from pressurepose.net.pmr import PMRConfig, pmr
 from pressurepose.net.transforms import InputConfig, apply_floor, to_device_async
 
 LR_SCHEDULES = ("constant", "cosine")
@@ -153,7 +154,7 @@ class TrainResult:
 
 
 # ---------------------------------------------------------------------------------------- data
-def as_training_data(data: Mapping, grid: MatGrid) -> dict[str, torch.Tensor]:
+def as_training_data(data: Mapping, grid: MatSpec) -> dict[str, torch.Tensor]:
     """Validate and convert a data mapping (see the module docstring) to float32/long tensors."""
     missing = [k for k in DATA_KEYS if k not in data]
     if missing:
@@ -257,7 +258,7 @@ def _epoch_seed(seed: int, stage: int, epoch: int) -> int:
     return (seed * 1_000_003 + stage * 10_007 + epoch) % (2 ** 62)
 
 
-def net_config_for(config: TrainConfig, grid: MatGrid, transl: torch.Tensor) -> NetConfig:
+def net_config_for(config: TrainConfig, grid: MatSpec, transl: torch.Tensor) -> NetConfig:
     """The network config a training run builds: output home translation = the data's mean, its
     scale = the data's range (at least 5 cm per axis)."""
     t = transl.double()
@@ -372,7 +373,7 @@ def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: 
 
 
 def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
-          bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatGrid | None = None,
+          bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatSpec | None = None,
           progress: bool = False) -> TrainResult:
     """Train Mod1 then Mod2 on ``data``; write logs, resumable state and the model into ``out_dir``.
 
@@ -380,9 +381,9 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
     BodiTrak BT-3510); the images in ``data`` must be on it.
     """
     if grid is None:
-        from pressurepose.sim.bed import get_mat
+        from pressurepose.mat import get_mat
 
-        grid = MatGrid.from_mat(get_mat("boditrak_bt3510"))
+        grid = get_mat("boditrak_bt3510")
     if bodies is None:
         bodies = (BodyModel("female"), BodyModel("male"))
     data = as_training_data(data, grid)

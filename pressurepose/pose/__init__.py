@@ -7,7 +7,13 @@
 from pressurepose.pose.config import SamplerConfig, mattress_outline
 from pressurepose.pose.limits import JointLimits, joint_limits
 from pressurepose.pose.partitions import PARTITIONS, Partition, get_partition
-from pressurepose.pose.samples import CAUSES, COUNTERS, BodySample, SampleBatch, load_samples
+from pressurepose.pose.samples import (
+    CAUSES,
+    COUNTERS,
+    BodySample,
+    SampleBatch,
+    load_samples,
+)
 
 _SAMPLER = ("body_rng", "sample_bodies", "sample_one")
 

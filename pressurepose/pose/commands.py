@@ -75,10 +75,19 @@ def run_sample(args) -> int:
 
     from pressurepose.body import BodyModel
     from pressurepose.errors import BadInput
-    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic
+    from pressurepose.files import (
+        FIGURE_SUFFIXES,
+        check_output_path,
+        save_figure_atomic,
+    )
     from pressurepose.pose.config import DEFAULT_SENSING, SamplerConfig
     from pressurepose.pose.partitions import get_partition
-    from pressurepose.pose.sampler import BLOCK, GENDER_NAMES, check_gender, sample_bodies
+    from pressurepose.pose.sampler import (
+        BLOCK,
+        GENDER_NAMES,
+        check_gender,
+        sample_bodies,
+    )
     from pressurepose.pose.samples import SampleBatch
 
     check_output_path(args.out, "--out", suffixes=(".npz",))

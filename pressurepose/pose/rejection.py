@@ -11,16 +11,39 @@ import itertools
 
 import numpy as np
 
-from pressurepose.body.capsules import (CAPSULE_JOINTS, CAPSULE_NAMES, capsule_endpoints, capsules_for,
-                                         load_regressors, regressor_path)
+from pressurepose.body.capsules import (
+    CAPSULE_JOINTS,
+    CAPSULE_NAMES,
+    capsule_endpoints,
+    capsules_for,
+    load_regressors,
+    regressor_path,
+)
 from pressurepose.body.joints import NUM_BETAS, joint_index
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, forward_kinematics, rodrigues
-from pressurepose.pose.collision import CHECKED_DEFAULT, checker, limb_pairs, segment_distance
+from pressurepose.pose.collision import (
+    CHECKED_DEFAULT,
+    checker,
+    limb_pairs,
+    segment_distance,
+)
 from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.limbs import LIMBS, limb_geometry, limb_lengths, to_world
 from pressurepose.pose.limits import JointLimits, joint_limits
-from pressurepose.pose.partitions import WEDGE_LENGTH_M, WEDGE_TRUNK, Partition, arm_bin, leg_bin
-from pressurepose.pose.root import draw_betas, draw_placement, root_axis_angle, slide_along_bed, world_rotation
+from pressurepose.pose.partitions import (
+    WEDGE_LENGTH_M,
+    WEDGE_TRUNK,
+    Partition,
+    arm_bin,
+    leg_bin,
+)
+from pressurepose.pose.root import (
+    draw_betas,
+    draw_placement,
+    root_axis_angle,
+    slide_along_bed,
+    world_rotation,
+)
 from pressurepose.pose.samples import COUNTERS, LIMB_CAUSES
 
 Q = Y_UP_TO_Z_UP

@@ -26,7 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import (
+    BadInput,
+    require_finite,
+    require_non_negative,
+    require_positive,
+)
+from pressurepose.mat import DEFAULT_MAT, MatSpec, get_mat
 
 INCH = 0.0254
 # Soft tissue's Young's modulus (Pa) for the press; see docs/physics.md for how it was chosen.
@@ -35,102 +41,6 @@ TISSUE_MODULUS_PA = 3.0e3
 # capsule radius (pressurepose.sim.tissue gives the anatomy behind each default).
 BONE_PARTS = ("pelvis", "spine", "shoulder", "neck", "head", "thigh", "calf", "foot", "upper_arm", "forearm", "hand")
 TISSUE_BONE_FRACTION = (0.6, 0.7, 0.85, 0.6, 0.93, 0.25, 0.35, 0.6, 0.45, 0.55, 0.6)
-
-
-def _check_finite(name: str, v) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
-        raise BadInput(f"{name} is {v!r}; expected a finite number")
-
-
-def _check_positive(name: str, v) -> None:
-    _check_finite(name, v)
-    if v <= 0:
-        raise BadInput(f"{name} is {v!r}; expected a positive number")
-
-
-def _check_non_negative(name: str, v) -> None:
-    _check_finite(name, v)
-    if v < 0:
-        raise BadInput(f"{name} is {v!r}; expected zero or a positive number")
-
-
-@dataclass(frozen=True)
-class MatSpec:
-    """A pressure-sensing mat: a grid of ``rows x cols`` taxels.
-
-    rows run along the bed (y, row 0 at the head end), cols across it (x). ``pitch_row_m`` is the
-    taxel spacing along the bed, ``pitch_col_m`` across it. ``max_mmhg`` is the top of the
-    sensor's range (readings are clipped to ``[0, max_mmhg]``).
-    """
-
-    name: str
-    rows: int
-    cols: int
-    pitch_row_m: float
-    pitch_col_m: float
-    max_mmhg: float = 100.0
-
-    def __post_init__(self):
-        for field in ("rows", "cols"):
-            v = getattr(self, field)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise BadInput(f"mat {field} is {v!r}; expected a positive whole number")
-            object.__setattr__(self, field, int(v))
-        for field in ("pitch_row_m", "pitch_col_m", "max_mmhg"):
-            _check_positive(f"mat {field}", getattr(self, field))
-            object.__setattr__(self, field, float(getattr(self, field)))
-        if not self.pitch_row_m < 0.5 or not self.pitch_col_m < 0.5:
-            raise BadInput(f"mat pitch {self.pitch_row_m} x {self.pitch_col_m} m is not a taxel pitch; "
-                           f"expected metres (e.g. 0.0286)")
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.rows, self.cols)
-
-    @property
-    def width_m(self) -> float:
-        """Sensing-area size across the bed (x)."""
-        return self.cols * self.pitch_col_m
-
-    @property
-    def length_m(self) -> float:
-        """Sensing-area size along the bed (y)."""
-        return self.rows * self.pitch_row_m
-
-    @property
-    def taxel_area_m2(self) -> float:
-        return self.pitch_row_m * self.pitch_col_m
-
-
-# Public facts: BodiTrak BT-3510 (paper, REFERENCE section 1); TIP bed sheet (REFERENCE section 1);
-# SLP: 192 x 84 taxels over about 1.92 x 0.84 m, i.e. 1 cm pitch (the BodyPressure code that reads
-# SLP notes "this one is 1.92 x 0.84" and shifts its images in whole centimetres per taxel).
-MATS: dict[str, MatSpec] = {
-    "boditrak_bt3510": MatSpec("boditrak_bt3510", 64, 27, 0.0286, 0.0286, 100.0),
-    "slp": MatSpec("slp", 192, 84, 0.010, 0.010, 100.0),
-    "tip": MatSpec("tip", 56, 40, 0.0311, 0.0195, 100.0),
-    # Vista Medical FSA SoftFlex 2048 (PhysioNet PMD experiment I): pitch undocumented, fitted from
-    # the subjects' heights (pressurepose.data.realprep.fit_pitch; docs/data.md), square taxels assumed
-    "fsa_softflex_2048": MatSpec("fsa_softflex_2048", 64, 32, 0.0280, 0.0280, 100.0),
-}
-DEFAULT_MAT = "boditrak_bt3510"
-
-
-def get_mat(name: str) -> MatSpec:
-    """A mat preset by name; BadInput listing the valid names otherwise."""
-    key = str(name).strip().lower()
-    if key not in MATS:
-        raise BadInput(f"mat preset {name!r} is not known; expected one of {', '.join(sorted(MATS))} "
-                       f"(or build one with custom_mat)")
-    return MATS[key]
-
-
-def custom_mat(rows: int, cols: int, pitch_row_m: float, pitch_col_m: float | None = None,
-               max_mmhg: float = 100.0, name: str = "custom") -> MatSpec:
-    """Any grid: ``rows`` along the bed at ``pitch_row_m``, ``cols`` across at ``pitch_col_m``
-    (defaults to square taxels)."""
-    return MatSpec(name, rows, cols, pitch_row_m, pitch_row_m if pitch_col_m is None else pitch_col_m,
-                   max_mmhg)
 
 
 def bone_fractions(value) -> tuple[float, ...]:
@@ -150,7 +60,7 @@ def bone_fractions(value) -> tuple[float, ...]:
         raise BadInput(f"bed tissue_bone_fraction has {len(out)} values; expected {len(BONE_PARTS)} "
                        f"({', '.join(BONE_PARTS)})")
     for k, v in zip(BONE_PARTS, out):
-        _check_finite(f"bed tissue_bone_fraction {k}", v)
+        require_finite(f"bed tissue_bone_fraction {k}", v)
         if not 0 < v <= 1:
             raise BadInput(f"bed tissue_bone_fraction {k} is {v!r}; expected a fraction of the capsule's "
                            f"radius in (0, 1]")
@@ -211,11 +121,11 @@ class BedSpec:
             raise BadInput(f"bed mat is {type(self.mat).__name__}; expected a MatSpec (see get_mat)")
         for field in ("mattress_width_m", "mattress_length_m", "mattress_thickness_m", "stiffness_n_m3",
                       "press_cell_m", "tissue_modulus_pa"):
-            _check_positive(f"bed {field}", getattr(self, field))
+            require_positive(f"bed {field}", getattr(self, field))
         for field in ("coupling_n_m", "damping_s", "friction", "sensor_threshold_mmhg"):
-            _check_non_negative(f"bed {field}", getattr(self, field))
+            require_non_negative(f"bed {field}", getattr(self, field))
         for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
-            _check_finite(f"bed {field}", getattr(self, field))
+            require_finite(f"bed {field}", getattr(self, field))
         object.__setattr__(self, "tissue_bone_fraction", bone_fractions(self.tissue_bone_fraction))
         for field in [f.name for f in dataclasses.fields(self)
                       if f.name not in ("mat", "mat_offset_m", "tissue_bone_fraction")]:
@@ -284,8 +194,8 @@ class BedSpec:
         """
         dx = self.mat.pitch_col_m if cell_x_m is None else float(cell_x_m)
         dy = self.mat.pitch_row_m if cell_y_m is None else float(cell_y_m)
-        _check_positive("cell_x_m", dx)
-        _check_positive("cell_y_m", dy)
+        require_positive("cell_x_m", dx)
+        require_positive("cell_y_m", dy)
         k = self.stiffness_n_m3 * dx * dy
         return {"vertical": k, "damping": k * self.damping_s, "coupling_x": self.coupling_n_m * dy / dx,
                 "coupling_y": self.coupling_n_m * dx / dy, "friction": self.friction}

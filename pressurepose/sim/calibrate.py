@@ -26,7 +26,12 @@ from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BONE_PARTS, BedSpec
 from pressurepose.sim.calibration_data import CapsuleMeasurements
 from pressurepose.sim.foundation import PressFailed
-from pressurepose.sim.press import Heightfield, PressResult, body_heightfield, press_heightfield
+from pressurepose.sim.press import (
+    Heightfield,
+    PressResult,
+    body_heightfield,
+    press_heightfield,
+)
 from pressurepose.sim.sensor import MMHG_PA, sensor_law
 
 PENALTY = 10.0  # loss of a proposal the bed cannot simulate (the loss of a good fit is ~0.01-0.1)

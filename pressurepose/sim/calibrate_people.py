@@ -42,10 +42,22 @@ from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
 from pressurepose.eval.realism_report import AREA_RATIO_TOLERANCE, SHARE_GAP_GOAL_PP
 from pressurepose.sim.bed import BedSpec
-from pressurepose.sim.calibrate import (PENALTY, FitResult, bed_params, minimize_cma, readings, sensor_penalty,
-                                        with_params)
+from pressurepose.sim.calibrate import (
+    PENALTY,
+    FitResult,
+    bed_params,
+    minimize_cma,
+    readings,
+    sensor_penalty,
+    with_params,
+)
 from pressurepose.sim.foundation import PressFailed
-from pressurepose.sim.press import Heightfield, body_heightfield, press_heightfield, with_tissue
+from pressurepose.sim.press import (
+    Heightfield,
+    body_heightfield,
+    press_heightfield,
+    with_tissue,
+)
 from pressurepose.sim.tissue import BoneCores, bone_cores
 
 DEFAULT_FIT = ("stiffness", "tissue", "threshold")
@@ -292,7 +304,11 @@ def run_people_calibration(args) -> int:
     import time
 
     from pressurepose.eval.realism_report import load_real
-    from pressurepose.files import check_output_path, save_figure_atomic, write_json_atomic
+    from pressurepose.files import (
+        check_output_path,
+        save_figure_atomic,
+        write_json_atomic,
+    )
     from pressurepose.sim.bed import bed_for
 
     if not args.real or not args.bodies:

@@ -33,7 +33,7 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.files import load_npz, save_npz_atomic
-from pressurepose.sim.bed import MatSpec
+from pressurepose.mat import MatSpec
 
 FORMAT = "pressurepose-calibration"
 VERSION = 1

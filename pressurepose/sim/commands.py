@@ -55,10 +55,16 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_calibrate(args) -> int:
-    from pressurepose.sim import calibrate as cal
-    from pressurepose.sim.bed import DEFAULT_MAT, BedSpec, get_bed
     from pressurepose.errors import BadInput
-    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic, write_json_atomic
+    from pressurepose.files import (
+        FIGURE_SUFFIXES,
+        check_output_path,
+        save_figure_atomic,
+        write_json_atomic,
+    )
+    from pressurepose.mat import DEFAULT_MAT
+    from pressurepose.sim import calibrate as cal
+    from pressurepose.sim.bed import BedSpec, get_bed
     from pressurepose.sim.calibration_data import load_measurements
 
     check_output_path(args.out, "--out", suffixes=(".json",))
@@ -263,7 +269,11 @@ def run_simulate(args) -> int:
 
     from pressurepose.body import BodyModel, canonical_gender
     from pressurepose.errors import BadInput
-    from pressurepose.files import FIGURE_SUFFIXES, check_output_path, save_figure_atomic
+    from pressurepose.files import (
+        FIGURE_SUFFIXES,
+        check_output_path,
+        save_figure_atomic,
+    )
     from pressurepose.pose.commands import body_settings
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition

@@ -30,8 +30,14 @@ import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
-from pressurepose.sim.foundation import (PasternakFoundation, PressFailed, level_sink, rigid_jacobian,
-                                         solve_pasternak, solve_winkler)
+from pressurepose.sim.foundation import (
+    PasternakFoundation,
+    PressFailed,
+    level_sink,
+    rigid_jacobian,
+    solve_pasternak,
+    solve_winkler,
+)
 from pressurepose.sim.raster import lower_surface
 from pressurepose.sim.sensor import GRAVITY, read_sensor
 from pressurepose.sim.tissue import Bones, tissue_depth

@@ -37,10 +37,20 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from pressurepose.body.capsules import CAPSULE_JOINTS, CAPSULE_NAMES, NUM_CAPSULES, Capsules, capsules_for
+from pressurepose.body.capsules import (
+    CAPSULE_JOINTS,
+    CAPSULE_NAMES,
+    NUM_CAPSULES,
+    Capsules,
+    capsules_for,
+)
 from pressurepose.body.joints import JOINT_NAMES, NUM_JOINTS, PARENTS
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rest_joints, shaped_rest
-from pressurepose.body.masses import CapsuleMasses, joint_frame_mass_properties, segment_masses
+from pressurepose.body.masses import (
+    CapsuleMasses,
+    joint_frame_mass_properties,
+    segment_masses,
+)
 from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput
 

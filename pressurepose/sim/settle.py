@@ -65,14 +65,42 @@ import numpy as np
 
 from pressurepose.body.capsules import CAPSULE_NAMES
 from pressurepose.errors import BadInput
+from pressurepose.pose.posture import (
+    POSTURES,
+    posture_class,
+    posture_index,
+    roll_angle,
+    roll_of_rotation,
+)
 from pressurepose.sim.bed import BedSpec, get_bed
-from pressurepose.sim.cellbed import (CellBed, CellIndex, add_cells, capsule_sinks, cell_bed, cell_forces,
-                                      cell_sink)
-from pressurepose.sim.posture import POSTURES, posture_class, posture_index, roll_angle, roll_of_rotation
-from pressurepose.sim.ragdoll import (BED_BIT, DAMPING_PER_STIFFNESS_S, LIMIT_STIFFNESS_FACTOR, RELAXED_LIMB_DAMPING_S,
-                                      RELAXED_SPINE_STIFFNESS, RagdollIndex, RagdollParams, add_ragdoll,
-                                      flexed_neck_home, limit_torques, local_to_smpl, pose_to_qpos, quat_to_rotvec,
-                                      qpos_to_pose, ragdoll_params, rotation_to_quat, write_params)
+from pressurepose.sim.cellbed import (
+    CellBed,
+    CellIndex,
+    add_cells,
+    capsule_sinks,
+    cell_bed,
+    cell_forces,
+    cell_sink,
+)
+from pressurepose.sim.ragdoll import (
+    BED_BIT,
+    DAMPING_PER_STIFFNESS_S,
+    LIMIT_STIFFNESS_FACTOR,
+    RELAXED_LIMB_DAMPING_S,
+    RELAXED_SPINE_STIFFNESS,
+    RagdollIndex,
+    RagdollParams,
+    add_ragdoll,
+    flexed_neck_home,
+    limit_torques,
+    local_to_smpl,
+    pose_to_qpos,
+    qpos_to_pose,
+    quat_to_rotvec,
+    ragdoll_params,
+    rotation_to_quat,
+    write_params,
+)
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
             "support_overlap")

@@ -13,7 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle, shaped_rest
+from pressurepose.body.lbs_numpy import (
+    Y_UP_TO_Z_UP,
+    rodrigues,
+    rotation_to_axis_angle,
+    shaped_rest,
+)
 
 # joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
 LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right")

@@ -34,7 +34,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, point_capsule_distance, posed_capsules
+from pressurepose.body.capsules import (
+    CAPSULE_NAMES,
+    capsules_for,
+    point_capsule_distance,
+    posed_capsules,
+)
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION, bone_fractions
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_height_cues import corr, cues
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 from tests.eval.test_realism import body
 
 MAT = get_mat("boditrak_bt3510")

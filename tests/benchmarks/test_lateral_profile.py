@@ -40,7 +40,7 @@ def test_first_rows_finds_the_head_end_as_recorded():
 
 def test_head_to_shoulder_finds_the_head_centroid_and_the_shoulder_peak():
     from benchmarks.bench_lateral_profile import head_to_shoulder
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     mat = get_mat("boditrak_bt3510")
     height = mat.rows * mat.pitch_row_m  # a row is 1/64 of the stature
@@ -113,7 +113,7 @@ def test_standout_reads_the_chest_higher_by_as_much_as_the_lower_shoulder_girdle
 
 def test_head_aligned_lines_images_up_by_their_head_end_and_the_figure_is_written(tmp_path):
     from benchmarks.bench_lateral_profile import head_aligned, side_by_side_figure
-    from pressurepose.sim.bed import get_mat
+    from pressurepose.mat import get_mat
 
     mat = get_mat("boditrak_bt3510")
     imgs = np.stack([_column(3, 40, 10), _column(12, 50, 20)])
@@ -144,7 +144,7 @@ def test_widen_moves_the_lower_shoulder_girdle_away_from_the_mid_plane():
 
 def test_side_lying_is_the_lateral_posture_classes_away_from_their_edges():
     from benchmarks.bench_lateral_profile import side_lying
-    from pressurepose.sim.posture import posture_classes, roll_angle
+    from pressurepose.pose.posture import posture_classes, roll_angle
 
     poses = np.random.default_rng(0).normal(0, 1.5, (400, 72))
     roll = np.degrees(roll_angle(poses))

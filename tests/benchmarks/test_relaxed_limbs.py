@@ -3,7 +3,14 @@
 import numpy as np
 import pytest
 
-from benchmarks.bench_relaxed_limbs import FEET, HANDS, air_and_cost, damping_of, label, main
+from benchmarks.bench_relaxed_limbs import (
+    FEET,
+    HANDS,
+    air_and_cost,
+    damping_of,
+    label,
+    main,
+)
 
 
 def _set(path, wrist_z, ankle_z, attempts, cpu_s):

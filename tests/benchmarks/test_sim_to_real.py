@@ -4,9 +4,20 @@ known by construction."""
 import numpy as np
 import pytest
 
-from benchmarks.bench_sim_to_real import (G, MMHG_PA, blur, gamma, halo, image_stats, round_trip, shift_rows,
-                                          stretch_rows, threshold, weight_scaled)
-from pressurepose.sim.bed import get_mat
+from benchmarks.bench_sim_to_real import (
+    MMHG_PA,
+    G,
+    blur,
+    gamma,
+    halo,
+    image_stats,
+    round_trip,
+    shift_rows,
+    stretch_rows,
+    threshold,
+    weight_scaled,
+)
+from pressurepose.mat import get_mat
 
 PITCH = (0.0286, 0.0286)
 

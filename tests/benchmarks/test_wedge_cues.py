@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_wedge_cues import region_widths, squeeze_across
-from pressurepose.sim.bed import MatSpec
+from pressurepose.mat import MatSpec
 
 MAT = MatSpec("test", 64, 27, 0.028, 0.028)
 

@@ -6,9 +6,21 @@ import torch
 
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import (
-    CAPSULE_JOINTS, CAPSULE_NAMES, NOMINAL_AXES, CapsuleRegressors, capsule_regions, capsules_for,
-    fit_capsules, fit_regressors, load_regressors, point_capsule_distance, posed_capsules,
-    regressed_capsules, regressor_path, save_regressors)
+    CAPSULE_JOINTS,
+    CAPSULE_NAMES,
+    NOMINAL_AXES,
+    CapsuleRegressors,
+    capsule_regions,
+    capsules_for,
+    fit_capsules,
+    fit_regressors,
+    load_regressors,
+    point_capsule_distance,
+    posed_capsules,
+    regressed_capsules,
+    regressor_path,
+    save_regressors,
+)
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.model import asset_path

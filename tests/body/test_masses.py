@@ -6,8 +6,15 @@ import pytest
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import CAPSULE_NAMES, fit_capsules
 from pressurepose.body.masses import (
-    CAPSULE_SEGMENTS, PAPER_VOXEL, RUNTIME_VOXEL, SEGMENT_FRACTIONS, capsule_inertia, segment_fractions,
-    segment_masses, shared_volumes)
+    CAPSULE_SEGMENTS,
+    PAPER_VOXEL,
+    RUNTIME_VOXEL,
+    SEGMENT_FRACTIONS,
+    capsule_inertia,
+    segment_fractions,
+    segment_masses,
+    shared_volumes,
+)
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput

@@ -10,7 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pressurepose.data.pipeline import GenerationError, WorkUnit, generate, make_sample, plan_units
+from pressurepose.data.pipeline import (
+    GenerationError,
+    WorkUnit,
+    generate,
+    make_sample,
+    plan_units,
+)
 from pressurepose.data.producers import Rejected, attempt_rng
 from pressurepose.data.store import MANIFEST, Manifest, read_shard_arrays, shard_name
 from pressurepose.data.synthetic import synthetic_producer

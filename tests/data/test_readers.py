@@ -14,7 +14,7 @@ from pressurepose.data.readers import pressurepose_pickle as pp
 from pressurepose.data.readers.slp import read_slp, slp_to_mat
 from pressurepose.data.resample import resample_force, resample_pressure
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import custom_mat, get_mat
+from pressurepose.mat import custom_mat, get_mat
 
 BODY = BodyModel(toy_body_arrays())
 

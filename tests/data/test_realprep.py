@@ -6,7 +6,7 @@ import pytest
 from pressurepose.data import realprep as rp
 from pressurepose.data.resample import MMHG_PA
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import custom_mat, get_mat
+from pressurepose.mat import custom_mat, get_mat
 from tests.data.realfolders import body_image
 
 FSA, BT = get_mat("fsa_softflex_2048"), get_mat("boditrak_bt3510")

@@ -7,12 +7,11 @@ import os
 import numpy as np
 import pytest
 
-from pressurepose.data import store
 from pressurepose.data.pipeline import generate
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.data.store import MANIFEST, Manifest, sha256_file, shard_name
-from pressurepose.files import write_bytes_atomic
 from pressurepose.errors import BadInput
+from pressurepose.files import write_bytes_atomic
 from tests.data.helpers import small_config
 
 

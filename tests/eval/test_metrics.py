@@ -3,9 +3,15 @@ import pytest
 import torch
 
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.eval.metrics import (baseline_body, baseline_pose, downsample_points, mpjpe,
-                                       v2v, vertex_point_error)
-from pressurepose.net.pmr import MatGrid
+from pressurepose.eval.metrics import (
+    baseline_body,
+    baseline_pose,
+    downsample_points,
+    mpjpe,
+    v2v,
+    vertex_point_error,
+)
+from pressurepose.mat import custom_mat
 from tests.net.synth import toy_body
 
 torch.set_num_threads(1)
@@ -25,7 +31,7 @@ def test_mpjpe_and_v2v_hand_computed():
 
 def test_baseline_is_supine_centred_straight_and_on_the_bed():
     body = toy_body()
-    grid = MatGrid(64, 27, 0.0286, 0.0286)
+    grid = custom_mat(64, 27, 0.0286, 0.0286)
     betas, pose, transl = baseline_body(body.forward, grid)
     assert np.all(betas == 0) and np.array_equal(pose, baseline_pose())
     verts, joints = body.forward(betas, pose, transl)

@@ -9,7 +9,7 @@ import pytest
 
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
-from pressurepose.sim.bed import MatSpec, get_mat
+from pressurepose.mat import MatSpec, get_mat
 from tests.data.realfolders import write_labelled
 
 MAT = get_mat("boditrak_bt3510")

@@ -9,10 +9,11 @@ import torch
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.model import BodyModel
 from pressurepose.body.toy import toy_body_arrays
-from pressurepose.net.pmr import MatGrid, pmr
+from pressurepose.mat import MatSpec, custom_mat, get_mat
+from pressurepose.net.pmr import pmr
 from pressurepose.net.rotations import euler_to_root_axis_angle
 
-GRID = MatGrid(rows=40, cols=20, pitch_row_m=0.05, pitch_col_m=0.05)  # 2.0 x 1.0 m, coarse and fast
+GRID = custom_mat(rows=40, cols=20, pitch_row_m=0.05, pitch_col_m=0.05)  # 2.0 x 1.0 m, coarse and fast
 
 
 def toy_body() -> BodyModel:
@@ -35,7 +36,7 @@ def toy_pose(rng: np.random.Generator, n: int) -> np.ndarray:
     return pose
 
 
-def toy_dataset(n: int = 8, seed: int = 0, grid: MatGrid = GRID) -> dict[str, torch.Tensor]:
+def toy_dataset(n: int = 8, seed: int = 0, grid: MatSpec = GRID) -> dict[str, torch.Tensor]:
     """n samples of the toy body resting on ``grid`` (its lowest tenth of vertices sunk by at least
     1 cm), as the training data mapping."""
     rng = np.random.default_rng(seed)
@@ -55,7 +56,7 @@ def toy_dataset(n: int = 8, seed: int = 0, grid: MatGrid = GRID) -> dict[str, to
             "transl": torch.tensor(transl).float(), "joints": torch.tensor(joints).float()}
 
 
-BODITRAK = MatGrid(rows=64, cols=27, pitch_row_m=0.0286, pitch_col_m=0.0286)
+BODITRAK = get_mat("boditrak_bt3510")
 
 
 def write_toy_dataset(out, n: int = 4, seed: int = 0):

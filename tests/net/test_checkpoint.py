@@ -9,14 +9,14 @@ import torch
 from pressurepose.body.model import BodyModel
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body, load_model, save_model
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
-from pressurepose.net.pmr import MatGrid
 from tests.net.synth import toy_dataset
 
 torch.set_num_threads(1)
-GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+GRID = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
 
 
 def _net():

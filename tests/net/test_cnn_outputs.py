@@ -5,8 +5,13 @@ import torch
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP
 from pressurepose.body.lbs_torch import batch_rodrigues
 from pressurepose.net.cnn import NUM_OUTPUTS, PressureCNN, flattened_size
-from pressurepose.net.outputs import (ANATOMICAL_RANGES_DEG, OutputConfig, OutputLayer,
-                                      network_joint_ranges, sampled_joint_limits)
+from pressurepose.net.outputs import (
+    ANATOMICAL_RANGES_DEG,
+    OutputConfig,
+    OutputLayer,
+    network_joint_ranges,
+    sampled_joint_limits,
+)
 from pressurepose.net.rotations import euler_to_root_axis_angle, pairs_to_euler
 from pressurepose.pose.root import world_rotation
 

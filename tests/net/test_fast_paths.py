@@ -13,8 +13,13 @@ from pressurepose.body.model import BodyModel
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.net.cnn import PressureCNN
 from pressurepose.net.infer import DEFAULT_MODEL, estimate
-from pressurepose.net.rotations import Q_Y_UP_TO_Z_UP, euler_to_root_axis_angle, euler_to_world_quat, quat_mul, \
-    quat_to_axis_angle
+from pressurepose.net.rotations import (
+    Q_Y_UP_TO_Z_UP,
+    euler_to_root_axis_angle,
+    euler_to_world_quat,
+    quat_mul,
+    quat_to_axis_angle,
+)
 from tests.net.golden_image import fixed_images
 
 GOLDEN = Path(__file__).parent / "data" / "golden_estimate.npz"

@@ -11,15 +11,15 @@ from pressurepose.body.smpl_io import save_body_arrays
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body, save_model
 from pressurepose.net.infer import estimate, load_pressure
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
-from pressurepose.net.pmr import MatGrid
 from tests.net.synth import toy_body, toy_dataset
 
 torch.set_num_threads(1)
-GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+GRID = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
 
 
 @pytest.fixture(scope="module")

@@ -14,22 +14,29 @@ import torch
 from pressurepose.body.model import BodyModel
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body, load_model, save_model
 from pressurepose.net.infer import estimate
-from pressurepose.net.mirror import (midpoint_rotation, mirror_averaged, mirror_images, mirror_joints,
-                                     mirror_points, mirror_pose, mirror_some)
+from pressurepose.net.mirror import (
+    midpoint_rotation,
+    mirror_averaged,
+    mirror_images,
+    mirror_joints,
+    mirror_points,
+    mirror_pose,
+    mirror_some,
+)
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
-from pressurepose.net.pmr import MatGrid
 from pressurepose.net.rotations import axis_angle_to_quat, quat_to_axis_angle
 from pressurepose.net.train import TrainConfig, train
-from pressurepose.sim.posture import roll_angle
+from pressurepose.pose.posture import roll_angle
 from tests.net.synth import toy_body, toy_dataset
 
 torch.set_num_threads(1)
 # the toy body is 10 mm from symmetric: the network-level checks below do not need it to be
 pytestmark = pytest.mark.filterwarnings("ignore:this body model is not mirror symmetric")
-GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+GRID = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
 
 
 def test_mirroring_a_pose_twice_gives_it_back_and_turns_the_roll_the_other_way():

@@ -5,16 +5,17 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.body.toy import toy_body_arrays
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body
 from pressurepose.net.losses import LossScales, dataset_scales, loss_l1, loss_l2
 from pressurepose.net.model import ModuleOutput, NetConfig, PressureNet
 from pressurepose.net.outputs import BodyParams, OutputConfig
-from pressurepose.net.pmr import MatGrid, PMRMaps
+from pressurepose.net.pmr import PMRMaps
 from pressurepose.net.transforms import InputConfig
 from tests.net.synth import toy_dataset
 
 torch.set_num_threads(1)
-GRID = MatGrid(rows=20, cols=16, pitch_row_m=0.1, pitch_col_m=0.0625)  # 2 x 1 m, input 40 x 32
+GRID = custom_mat(rows=20, cols=16, pitch_row_m=0.1, pitch_col_m=0.0625)  # 2 x 1 m, input 40 x 32
 
 
 def _config(**kw) -> NetConfig:

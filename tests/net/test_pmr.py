@@ -3,14 +3,15 @@ import math
 import numpy as np
 import torch
 
-from pressurepose.net.pmr import MatGrid, PMRConfig, maps_from_depth, pmr, sink_depth
+from pressurepose.mat import MatSpec, custom_mat
+from pressurepose.net.pmr import PMRConfig, maps_from_depth, pmr, sink_depth
 
 torch.set_num_threads(1)
 
-GRID = MatGrid(rows=6, cols=5, pitch_row_m=0.03, pitch_col_m=0.02)
+GRID = custom_mat(rows=6, cols=5, pitch_row_m=0.03, pitch_col_m=0.02)
 
 
-def brute_force_depth(verts: np.ndarray, grid: MatGrid, config: PMRConfig) -> np.ndarray:
+def brute_force_depth(verts: np.ndarray, grid: MatSpec, config: PMRConfig) -> np.ndarray:
     """Reference: Python loops over vertices and taxels."""
     out = np.zeros((len(verts), grid.rows, grid.cols))
     for b, mesh in enumerate(verts):

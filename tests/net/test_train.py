@@ -6,14 +6,14 @@ import torch
 
 import pressurepose.net.train as train_mod
 from pressurepose.errors import BadInput
+from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import load_model
 from pressurepose.net.losses import joint_error, loss_l1
-from pressurepose.net.pmr import MatGrid
 from pressurepose.net.train import TrainConfig, as_training_data, train
 from tests.net.synth import toy_body, toy_dataset
 
 torch.set_num_threads(1)
-GRID = MatGrid(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)  # 2 x 1 m; CNN input 32 x 32
+GRID = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)  # 2 x 1 m; CNN input 32 x 32
 
 
 def test_overfits_a_tiny_dataset(tmp_path):

@@ -4,8 +4,16 @@ import torch
 from scipy import ndimage
 
 from pressurepose.errors import BadInput
-from pressurepose.net.transforms import (InputConfig, apply_floor, contact_map, gaussian_blur, input_channels,
-                                         normalise_per_image, sobel_magnitude, upsample)
+from pressurepose.net.transforms import (
+    InputConfig,
+    apply_floor,
+    contact_map,
+    gaussian_blur,
+    input_channels,
+    normalise_per_image,
+    sobel_magnitude,
+    upsample,
+)
 
 torch.set_num_threads(1)
 

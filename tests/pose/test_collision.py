@@ -5,8 +5,13 @@ import numpy as np
 import pytest
 
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, posed_capsules
-from pressurepose.pose.collision import (CHECKED_DEFAULT, SelfCollision, collision_pairs, limb_pairs,
-                                         segment_distance)
+from pressurepose.pose.collision import (
+    CHECKED_DEFAULT,
+    SelfCollision,
+    collision_pairs,
+    limb_pairs,
+    segment_distance,
+)
 from pressurepose.pose.limbs import LIMBS
 
 N = CAPSULE_NAMES.index

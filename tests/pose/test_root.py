@@ -5,7 +5,12 @@ import numpy as np
 import pytest
 
 from pressurepose.body.joints import joint_index as J
-from pressurepose.pose.root import body_axes, root_axis_angle, root_rotation, world_rotation
+from pressurepose.pose.root import (
+    body_axes,
+    root_axis_angle,
+    root_rotation,
+    world_rotation,
+)
 
 
 def nose_index(body):

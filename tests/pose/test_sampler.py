@@ -5,8 +5,14 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, joint_frames, posed_capsules
-from pressurepose.body.joints import PARENTS, joint_index as J
+from pressurepose.body.capsules import (
+    CAPSULE_NAMES,
+    capsules_for,
+    joint_frames,
+    posed_capsules,
+)
+from pressurepose.body.joints import PARENTS
+from pressurepose.body.joints import joint_index as J
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP as Q
 from pressurepose.body.lbs_numpy import rodrigues
 from pressurepose.pose import SamplerConfig, joint_limits
@@ -245,7 +251,7 @@ def test_bed_referenced_heights_keep_the_distal_joints_near_the_bed(female):
     body lies on (recomputed here: the support capsules with the limbs at rest), and the upper limbs
     of bodies on their side start lower than with the proximal rule."""
     from pressurepose.pose import sample_bodies
-    from pressurepose.sim.posture import posture_classes
+    from pressurepose.pose.posture import posture_classes
 
     config = SamplerConfig(height_reference="bed")
     lo, hi = config.bed_height_band

@@ -7,8 +7,15 @@ from pressurepose.body import BodyModel
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
-from pressurepose.pose import (COUNTERS, SamplerConfig, body_rng, get_partition, load_samples, sample_bodies,
-                               sample_one)
+from pressurepose.pose import (
+    COUNTERS,
+    SamplerConfig,
+    body_rng,
+    get_partition,
+    load_samples,
+    sample_bodies,
+    sample_one,
+)
 
 FIELDS = ("betas", "pose", "transl", "joints", "bins", "roll", "yaw", "counts")
 

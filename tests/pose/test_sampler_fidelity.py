@@ -8,7 +8,11 @@ import pytest
 
 from benchmarks.bench_sampler_fidelity import load_official, official_path
 from pressurepose.errors import BadInput
-from pressurepose.pose.fidelity import SAMPLED_DOFS, marginal_distances, pose_from_indexed
+from pressurepose.pose.fidelity import (
+    SAMPLED_DOFS,
+    marginal_distances,
+    pose_from_indexed,
+)
 
 
 def test_sampled_dofs_are_the_22_of_the_public_sampler():

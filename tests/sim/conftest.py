@@ -9,7 +9,12 @@ import scipy.sparse.linalg as spl
 import trimesh
 
 from pressurepose.sim import GRAVITY, get_bed
-from pressurepose.sim.foundation import PasternakFoundation, rigid_jacobian, solve_pasternak, solve_winkler
+from pressurepose.sim.foundation import (
+    PasternakFoundation,
+    rigid_jacobian,
+    solve_pasternak,
+    solve_winkler,
+)
 from pressurepose.sim.press import body_heightfield, press_grid
 
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import INCH, MATS, BedSpec, custom_mat, get_bed, get_mat
+from pressurepose.mat import MATS, custom_mat, get_mat
+from pressurepose.sim.bed import INCH, BedSpec, get_bed
 
 
 def test_presets_match_the_published_grids():

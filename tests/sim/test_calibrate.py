@@ -10,11 +10,27 @@ from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.sim import GRAVITY, get_bed, press
 from pressurepose.sim.bed import load_bed
-from pressurepose.sim.calibrate import (PhysicalTargets, bed_params, calibrate, calibrate_targets,
-                                        calibration_loss, capsule_mesh, fit_settle_stiffness,
-                                        loss_terms, measurement_heightfields, minimize_cma, readings, simulate,
-                                        stiffness_from_penetration, with_params)
-from pressurepose.sim.calibration_data import CapsuleMeasurements, load_measurements, save_measurements
+from pressurepose.sim.calibrate import (
+    PhysicalTargets,
+    bed_params,
+    calibrate,
+    calibrate_targets,
+    calibration_loss,
+    capsule_mesh,
+    fit_settle_stiffness,
+    loss_terms,
+    measurement_heightfields,
+    minimize_cma,
+    readings,
+    simulate,
+    stiffness_from_penetration,
+    with_params,
+)
+from pressurepose.sim.calibration_data import (
+    CapsuleMeasurements,
+    load_measurements,
+    save_measurements,
+)
 from pressurepose.sim.press import mesh_centroid
 
 FAST_BED = get_bed(press_cell_m=0.0143)  # 2 x 2 cells per taxel: quick enough for CMA-ES in a test

@@ -12,9 +12,9 @@ from pressurepose.body import BodyModel
 from pressurepose.body.joints import joint_index
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
+from pressurepose.sim import calibrate_people as C
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.calibrate import with_params
-from pressurepose.sim import calibrate_people as C
 
 FAST_BED = get_bed(press_cell_m=0.0143)  # 2 x 2 cells per taxel
 SUPINE_ROOT = np.array([0.0, -np.pi / np.sqrt(2), -np.pi / np.sqrt(2)])
@@ -23,7 +23,11 @@ SUPINE_ROOT = np.array([0.0, -np.pi / np.sqrt(2), -np.pi / np.sqrt(2)])
 def lying_body(body, betas, bed, arm_drop: float = 1.3, roll: float = 0.0) -> C.RestingBody:
     """A supine body (turned ``roll`` rad about the bed's long axis), arms lowered toward its sides,
     centred on the mat, lowest point at z = 0."""
-    from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle
+    from pressurepose.body.lbs_numpy import (
+        Y_UP_TO_Z_UP,
+        rodrigues,
+        rotation_to_axis_angle,
+    )
 
     pose = np.zeros(72)
     turn = Y_UP_TO_Z_UP.T @ rodrigues(np.array([0.0, roll, 0.0])) @ Y_UP_TO_Z_UP

@@ -9,7 +9,12 @@ import trimesh
 
 from pressurepose.errors import BadInput
 from pressurepose.sim import get_bed, press
-from pressurepose.sim.randomize import CONDITION_NAMES, Conditions, RandomizationRanges, draw_conditions
+from pressurepose.sim.randomize import (
+    CONDITION_NAMES,
+    Conditions,
+    RandomizationRanges,
+    draw_conditions,
+)
 from pressurepose.sim.sensor import read_sensor
 
 

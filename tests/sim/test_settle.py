@@ -7,19 +7,25 @@ import numpy as np
 import pytest
 
 from pressurepose.body import BodyModel
-from pressurepose.body.model import asset_path
 from pressurepose.body.capsules import capsules_for, posed_capsules
 from pressurepose.body.joints import JOINT_NAMES
+from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
 from pressurepose.pose.limits import joint_limits
+from pressurepose.pose.posture import posture_class, posture_classes, roll_angle
 from pressurepose.pose.root import root_axis_angle, world_rotation
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.calibrate import fit_settle_stiffness
 from pressurepose.sim.cellbed import cell_bed, rigid_sink
-from pressurepose.sim.posture import posture_class, posture_classes, roll_angle
 from pressurepose.sim.ragdoll import home_pose, ragdoll_params
-from pressurepose.sim.settle import BODY_PART_CAPSULES, SettleConfig, calibrate_stiffness, settle, settle_sink_fn
+from pressurepose.sim.settle import (
+    BODY_PART_CAPSULES,
+    SettleConfig,
+    calibrate_stiffness,
+    settle,
+    settle_sink_fn,
+)
 
 G = 9.81
 BED = get_bed()
@@ -342,10 +348,9 @@ def test_cached_stiffness_is_the_fit():
 def test_a_supine_head_rests_on_the_bed():
     """With the relaxed neck (default) a supine head falls onto the bed while settling and the press
     finds it loading the mat; the paper's stiff neck holds it higher."""
+    from pressurepose.pose.sampler import body_rng, sample_one
     from pressurepose.sim.press import press
     from pressurepose.sim.tissue import body_bones
-
-    from pressurepose.pose.sampler import body_rng, sample_one
 
     body = BodyModel("female")
     drawn = sample_one("general_supine", "f", body_rng(3, 0), body=body)

@@ -10,7 +10,12 @@ import trimesh
 from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import GRAVITY, get_bed, press
-from pressurepose.sim.press import Heightfield, body_heightfield, press_grid, press_heightfield
+from pressurepose.sim.press import (
+    Heightfield,
+    body_heightfield,
+    press_grid,
+    press_heightfield,
+)
 from pressurepose.sim.tissue import TISSUE_MIN_M, Bones, tissue_depth
 
 K_A = 6e4

@@ -9,15 +9,15 @@ from pressurepose.body import BodyModel
 from pressurepose.body.capsules import CAPSULE_NAMES
 from pressurepose.errors import BadInput
 from pressurepose.pose.config import SamplerConfig
+from pressurepose.pose.partitions import WEDGE_TRUNK
+from pressurepose.pose.posture import roll_angle, roll_of_rotation
 from pressurepose.pose.root import world_rotation
 from pressurepose.pose.sampler import sample_one
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.foundation import PressFailed
-from pressurepose.sim.posture import roll_angle, roll_of_rotation
-from pressurepose.sim.settle import settle
 from pressurepose.sim.sensor import read_sensor
+from pressurepose.sim.settle import settle
 from pressurepose.sim.simulate import simulate_one
-from pressurepose.pose.partitions import WEDGE_TRUNK
 from pressurepose.sim.wedge import Wedge, relieved_body, wedge_behind, wedge_load
 
 G = 9.81

@@ -21,7 +21,7 @@ import numpy as np
 from pressurepose.data.readers.real import RealImages
 from pressurepose.errors import BadInput
 from pressurepose.files import numpy_load_problem
-from pressurepose.sim.bed import MatSpec, custom_mat, get_mat
+from pressurepose.mat import MatSpec, custom_mat, get_mat
 
 REQUIRED = ("posture", "height_m", "weight_kg")
 POSTURES = ("supine", "left", "right", "lateral", "prone")

@@ -42,7 +42,7 @@ import numpy as np
 from pressurepose.data.readers.real import RealImages, make_real
 from pressurepose.data.realprep import combine_frames, orient, valid_frames
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 PMD_I_POSTURES: dict[int, tuple[str, str]] = {
     1: ("supine", "supine"), 2: ("right", "right side"), 3: ("left", "left side"),

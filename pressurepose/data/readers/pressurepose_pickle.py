@@ -42,12 +42,18 @@ import numpy as np
 
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle
 from pressurepose.data.resample import MMHG_PA
-from pressurepose.data.schema import (LEGACY_SAMPLING, PARTITIONS, GenerationConfig, Sample, check_gender,
-                                      check_partition)
+from pressurepose.data.schema import (
+    LEGACY_SAMPLING,
+    PARTITIONS,
+    GenerationConfig,
+    Sample,
+    check_gender,
+    check_partition,
+)
 from pressurepose.data.store import Manifest, write_dataset
 from pressurepose.errors import BadInput
 from pressurepose.files import write_bytes_atomic
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 PITCH = 0.0286          # their taxel spacing (INTER_SENSOR_DISTANCE), m
 ORIGIN_TAXELS = 10      # their origin lies this many taxels outside the mat corner

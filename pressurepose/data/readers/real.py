@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import MatSpec
+from pressurepose.mat import MatSpec
 
 # posture labels: 'lateral' = on either side; 'inclined' = recorded on a non-flat bed (not scored);
 # '' = not known (not scored for posture)

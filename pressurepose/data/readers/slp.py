@@ -23,7 +23,7 @@ import numpy as np
 from pressurepose.data.resample import resample_pressure
 from pressurepose.errors import BadInput
 from pressurepose.files import numpy_load_problem
-from pressurepose.sim.bed import get_mat
+from pressurepose.mat import get_mat
 
 COVERS = ("uncover", "cover1", "cover2")
 FRAMES = 45
