@@ -28,6 +28,7 @@ demo: $(VENV)/.installed
 	$(BIN)/pressurepose demo --out demo_out
 
 test: $(VENV)/.installed-dev
+	$(BIN)/lint-imports --no-cache
 	OMP_NUM_THREADS=2 MPLBACKEND=Agg $(BIN)/python -m pytest -q
 
 bench: $(VENV)/.installed-dev

@@ -19,16 +19,16 @@ import time
 import numpy as np
 
 from benchmarks.results import write_section
-from pressurepose.sim import get_bed
-from pressurepose.sim.calibrate import (
+from pressurepose.calibrate.measurements import CapsuleMeasurements
+from pressurepose.calibrate.objects import (
     bed_params,
     calibrate,
     measurement_heightfields,
     readings,
-    simulate,
     with_params,
 )
-from pressurepose.sim.calibration_data import CapsuleMeasurements
+from pressurepose.sim import get_bed
+from pressurepose.sim.stiffness import press_objects
 
 HIDDEN = {"stiffness": 7.0e4, "spread": 0.03, "c0": 3.0, "c1": 1.3, "c2": 0.004}
 
@@ -45,7 +45,7 @@ def paper_capsules(bed, seed: int = 0) -> CapsuleMeasurements:
     blank = CapsuleMeasurements(bed.mat, rad, length, mass, centre, yaw, np.zeros((len(rows),) + bed.mat.shape),
                                 np.ones(len(rows)))
     truth = with_params(bed, HIDDEN)
-    force, sink = simulate(truth, measurement_heightfields(blank, bed), mass)
+    force, sink = press_objects(truth, measurement_heightfields(blank, bed), mass)
     return CapsuleMeasurements(bed.mat, rad, length, mass, centre, yaw, readings(force, truth), sink)
 
 

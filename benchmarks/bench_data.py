@@ -39,7 +39,7 @@ def run_generation(out: Path, workers: int, count: int, cost_ms: float, producer
 
 def load_time(root: Path, count: int) -> dict:
     from pressurepose.data.dataset import DatasetReader
-    from pressurepose.data.pipeline import generate
+    from pressurepose.data.generate import generate
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.torch_dataset import PressureDataset
 

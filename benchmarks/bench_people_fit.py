@@ -90,7 +90,7 @@ def main(argv=None) -> None:
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
 
-    from pressurepose.eval.commands import format_worst_gap
+    from pressurepose.cli.eval import format_worst_gap
     from pressurepose.eval.realism import REGIONS
 
     args.out.mkdir(parents=True, exist_ok=True)

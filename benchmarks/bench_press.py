@@ -51,7 +51,7 @@ def model_bodies(bed, count: int):
     the rest with random shapes and small random limb angles. (A rigid body rolled part-way onto its
     side has no equilibrium: it rolls back, which the press reports as a tip-over.)"""
     from pressurepose.body import BodyModel
-    from pressurepose.sim.calibrate import supine_body_mesh
+    from pressurepose.calibrate.objects import supine_body_mesh
 
     body = BodyModel("female")
     rng = np.random.default_rng(0)

@@ -85,7 +85,7 @@ def main(argv=None) -> None:
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args(argv)
 
-    from pressurepose.eval.commands import format_realism
+    from pressurepose.cli.eval import format_realism
 
     if args.synthetic:
         sets = [(lab, Path(d)) for lab, _, d in (x.partition("=") for x in args.synthetic)]

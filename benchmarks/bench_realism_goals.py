@@ -28,8 +28,8 @@ from benchmarks.bench_realism import DEFAULT_DATA
 from benchmarks.bench_relaxed_limbs import image_set, sets_of
 from benchmarks.bench_spine import PAPER, PARTITIONS, seeds_and_count
 from benchmarks.results import write_section
+from pressurepose.cli.eval import format_goals
 from pressurepose.errors import BadInput
-from pressurepose.eval.commands import format_goals
 from pressurepose.eval.realism_report import (
     goal_verdicts,
     headline,

@@ -392,8 +392,8 @@ def test_simulate_keeps_finished_bodies_when_killed_and_resumes(tmp_path, capsys
 
 
 def test_calibrate_refuses_objects_off_the_mat():
+    from pressurepose.calibrate.measurements import CapsuleMeasurements
     from pressurepose.mat import get_mat
-    from pressurepose.sim.calibration_data import CapsuleMeasurements
 
     mat = get_mat("boditrak_bt3510")
     with pytest.raises(BadInput, match="off the mat"):
@@ -402,7 +402,7 @@ def test_calibrate_refuses_objects_off_the_mat():
 
 
 def test_calibrate_writes_no_bed_when_the_fit_is_at_the_penalty(tmp_path, capsys, monkeypatch):
-    import pressurepose.sim.calibrate as cal
+    import pressurepose.calibrate.objects as cal
     from pressurepose.sim.bed import get_bed
 
     failed = SimpleNamespace(bed=get_bed(), loss=cal.PENALTY, fitted={}, evaluations=10, generations=1, stop={},

@@ -165,7 +165,7 @@ def test_the_tools_defaults_train_as_the_shipped_model_was_trained(tmp_path, mon
     import argparse
     import sys
 
-    from pressurepose.net.commands import add_train_arguments
+    from pressurepose.cli.net import add_train_arguments
 
     calls = []
     T = _tool()

@@ -133,7 +133,7 @@ def cli(*args: str) -> None:
 
 
 def main() -> int:
-    from pressurepose.cli import seed_arg
+    from pressurepose.cli.args import seed_arg
     from pressurepose.sim.settle import SETTLES
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

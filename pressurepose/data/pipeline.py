@@ -290,7 +290,7 @@ def check_shards(out: Path, manifest: Manifest, repair: bool = False) -> list[in
     return todo
 
 
-def _commit_result(out: Path, manifest: Manifest, result: UnitResult) -> None:
+def commit_result(out: Path, manifest: Manifest, result: UnitResult) -> None:
     name = shard_name(result.shard)
     digest = sha256_bytes(result.data)
     previous = manifest.shards.get(result.shard)
@@ -306,65 +306,6 @@ def _commit_result(out: Path, manifest: Manifest, result: UnitResult) -> None:
         tmp.unlink(missing_ok=True)
         raise
     commit(tmp, out / name)
-
-
-# --------------------------------------------------------------------------- the run
-
-
-@dataclass
-class RunReport:
-    out: Path
-    manifest: Manifest
-    made: int          # shards made by this run
-    skipped: int       # shards already finished
-    seconds: float
-    retries: int
-    unit_cpu_seconds: float  # CPU time spent making this run's shards, summed over workers
-
-
-def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray_address: str | None = None,
-             retries: int = 2, progress: bool = True, repair: bool = False,
-             only_shards: list[int] | None = None) -> RunReport:
-    """Make (or finish) the dataset of ``config`` in ``out``; rerunning continues where it stopped.
-
-    workers: local processes (1 = in this process); ray_address: run on Ray instead (``"local"`` starts
-    a local instance); retries: extra tries for a failing unit before GenerationError; repair: set
-    corrupt shards aside and remake them; only_shards: make just these shards (the rest may stay
-    missing). Returns a :class:`RunReport`.
-    """
-    from pressurepose.data.executors import check_executor, run_units
-    from pressurepose.data.progress import ProgressBar
-
-    t0 = time.perf_counter()
-    out = Path(out)
-    get_mat(config.mat)  # unknown mats fail here, before anything is written
-    resolve_producer(config.producer)
-    check_executor(workers, ray_address, retries)
-    if only_shards is not None:  # before anything is written
-        bad = [k for k in only_shards if not 0 <= k < config.num_shards]
-        if bad:
-            raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")
-    manifest = open_output(out, config)
-    todo = check_shards(out, manifest, repair)
-    if only_shards is not None:
-        todo = [k for k in todo if k in set(only_shards)]
-    skipped = config.num_shards - len(todo)
-    unit_cpu = []
-    bar = ProgressBar(total=config.count, initial=manifest.samples_done, enabled=progress,
-                      desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
-    assemble = ShardAssembler(lambda r: (_commit_result(out, manifest, r), bar.unit_done(r),
-                                         unit_cpu.append(r.cpu_seconds)))
-    parallel = 1 if ray_address else workers  # Ray: one unit per shard
-    try:
-        retried = run_units(plan_units(config, todo, parallel), workers=workers, ray_address=ray_address,
-                            retries=retries, on_result=assemble, on_progress=bar.attempt,
-                            on_failure=bar.unit_failed)
-    finally:
-        bar.close()
-    if len(manifest.shards) == config.num_shards and not manifest.complete:
-        manifest.complete = True
-        manifest.save(out)
-    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried, sum(unit_cpu))
 
 
 def format_failure(unit: WorkUnit, exc: BaseException) -> str:

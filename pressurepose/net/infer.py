@@ -3,7 +3,7 @@
 >>> from pressurepose.net.infer import estimate
 >>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg
 >>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
->>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply, estimate_000.png
+>>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from pressurepose.errors import BadInput
 from pressurepose.files import (
     atomic_write,
     read_npy,
-    save_figure_atomic,
     save_npz_atomic,
     write_json_atomic,
 )
@@ -64,10 +63,10 @@ class Estimate:
         return [{"gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
-    def save(self, out_dir: str | Path, mesh_format: str = "ply", max_figures: int = 16) -> list[Path]:
-        """Write estimate.json, estimate.npz, one mesh per image (``mesh_000.ply`` or ``.obj``) and a
-        PNG for each of the first ``max_figures`` images, removing the numbered meshes and PNGs an
-        earlier estimate left in ``out_dir``. Returns the paths written."""
+    def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
+        """Write estimate.json, estimate.npz and one mesh per image (``mesh_000.ply`` or ``.obj``),
+        removing the numbered meshes an earlier estimate left in ``out_dir``. Returns the paths
+        written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
         import trimesh
 
         if mesh_format not in ("ply", "obj"):
@@ -85,54 +84,12 @@ class Estimate:
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
             atomic_write(p, lambda t, mesh=mesh: mesh.export(str(t), file_type=mesh_format))
             paths.append(p)
-        for i in range(min(len(self), max_figures)):
-            p = out / f"estimate_{i:03d}.png"
-            fig = figure(self, i)
-            save_figure_atomic(fig, p, dpi=110)
-            import matplotlib.pyplot as plt
-
-            plt.close(fig)
-            paths.append(p)
-        # meshes and pictures of an earlier, longer estimate in the same folder would pass for this one's
+        # meshes of an earlier, longer estimate in the same folder would pass for this one's
         written = set(paths)
-        for stale in [*out.glob("mesh_[0-9][0-9][0-9].ply"), *out.glob("mesh_[0-9][0-9][0-9].obj"),
-                      *out.glob("estimate_[0-9][0-9][0-9].png")]:
+        for stale in [*out.glob("mesh_[0-9][0-9][0-9].ply"), *out.glob("mesh_[0-9][0-9][0-9].obj")]:
             if stale not in written:
                 stale.unlink()
         return paths
-
-
-def figure(est: Estimate, i: int = 0):
-    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from below
-    through the mat (laid out like the images: row 0 / the head end at the top)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
-
-    from pressurepose.viz.mesh import draw_mesh
-
-    fig, axes = plt.subplots(1, 3, figsize=(12, 6))
-    for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
-                                 (axes[1], est.q[i], "reconstructed map Q (PMR)", "mm sink")):
-        im = ax.imshow(img, cmap="magma", interpolation="nearest")
-        ax.set_title(title)
-        fig.colorbar(im, ax=ax, fraction=0.046, label=unit)
-        ax.set_xticks([])
-        ax.set_yticks([])
-    ax = axes[2]
-    w, length = est.grid.size_m
-    ax.add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5", label="mat"))
-    draw_mesh(ax, est.vertices[i], est.faces, view="below")
-    j = est.joints[i]
-    ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red", label="joints")
-    ax.legend(loc="lower right", fontsize=7)
-    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
-    ax.set_xlabel("x across the bed (m)")
-    ax.set_ylabel("-y along the bed (m)")
-    fig.tight_layout()
-    return fig
 
 
 # ---------------------------------------------------------------------------------------- input

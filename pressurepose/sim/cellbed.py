@@ -279,7 +279,7 @@ def rigid_sink(cells: CellBed, shape: str, size, mass_kg: float, center_xy=(0.0,
 
 def capsule_sinks(cells: CellBed, radius_m, length_m, mass_kg, center_xy_m, yaw_rad) -> np.ndarray:
     """Sinks (J,) m of J rigid capsules, each resting alone on ``cells``. The arguments are as in
-    :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`: radius and mass (J,), length
+    :class:`~pressurepose.calibrate.measurements.CapsuleMeasurements`: radius and mass (J,), length
     (J,) end to end *with* the caps, bed-frame centre (J, 2), yaw of the axis from the x axis (J,)."""
     radius, length, mass = (np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in (radius_m, length_m, mass_kg))
     if np.any(length < 2 * radius - 1e-12):

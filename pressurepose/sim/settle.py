@@ -82,6 +82,7 @@ from pressurepose.sim.cellbed import (
     cell_forces,
     cell_sink,
 )
+from pressurepose.sim.presets import SETTLES
 from pressurepose.sim.ragdoll import (
     BED_BIT,
     DAMPING_PER_STIFFNESS_S,
@@ -220,8 +221,6 @@ class SettleConfig:
                 raise BadInput(f"settle {name} is {v!r}; expected zero or a positive number")
 
 
-# The settles a dataset can be made with (``GenerationConfig.settle``, ``generate --settle``).
-SETTLES = ("relaxed", "paper", "relaxed-limbs")
 
 
 def settle_preset(name: str) -> SettleConfig:
@@ -346,7 +345,7 @@ def settle_cells(bed: BedSpec, config: SettleConfig, stiffness_n_m3: float | Non
 
 @dataclass(frozen=True)
 class CapsuleObjects:
-    """Rigid capsules lying on the bed, in :class:`~pressurepose.sim.calibration_data.CapsuleMeasurements`'
+    """Rigid capsules lying on the bed, in :class:`~pressurepose.calibrate.measurements.CapsuleMeasurements`'
     terms: radius_m, length_m (end to end, caps included), mass_kg (J,); center_xy_m (J, 2); yaw_rad (J,)."""
 
     radius_m: tuple[float, ...]
@@ -368,7 +367,7 @@ BODY_PART_CAPSULES = CapsuleObjects(
 def settle_sink_fn(objects, bed: BedSpec, config: SettleConfig | None = None):
     """``k -> sinks (J,)`` m of the capsules ``objects`` (a :class:`CapsuleObjects` or measurements) on
     ``config``'s cell bed with foundation modulus k (N/m^3): the ``sink_fn`` of
-    :func:`pressurepose.sim.calibrate.fit_settle_stiffness` (appendix A.5). The cell size matters: a
+    :func:`pressurepose.sim.stiffness.fit_settle_stiffness` (appendix A.5). The cell size matters: a
     coarse cell is pressed as deep as the deepest point above it, so coarse grids need a softer k."""
     config = SettleConfig() if config is None else config
     o = objects
@@ -384,16 +383,20 @@ def calibrate_stiffness(bed: BedSpec | None = None, config: SettleConfig | None 
                         objects: CapsuleObjects = BODY_PART_CAPSULES):
     """Appendix A.5 without real measurements: the settle bed's modulus at which ``objects`` sink as
     deep as the (calibrated) press model of ``bed`` says they sink. Returns a
-    :class:`~pressurepose.sim.calibrate.SettleStiffness`; use ``SettleConfig(stiffness_n_m3=...)``.
+    :class:`~pressurepose.sim.stiffness.SettleStiffness`; use ``SettleConfig(stiffness_n_m3=...)``.
     About 15 s on one core."""
-    from pressurepose.sim.calibrate import capsule_mesh, fit_settle_stiffness, simulate
     from pressurepose.sim.press import body_heightfield
+    from pressurepose.sim.stiffness import (
+        capsule_mesh,
+        fit_settle_stiffness,
+        press_objects,
+    )
 
     bed = get_bed() if bed is None else bed
     o = objects
     fields = [body_heightfield(*capsule_mesh(r, L, xy, yaw), bed)
               for r, L, xy, yaw in zip(o.radius_m, o.length_m, o.center_xy_m, o.yaw_rad)]
-    _, press_sinks = simulate(bed, fields, o.mass_kg)
+    _, press_sinks = press_objects(bed, fields, o.mass_kg)
     k = bed.stiffness_n_m3
     return fit_settle_stiffness(press_sinks, settle_sink_fn(o, bed, config), bounds=(k / 10, k * 10), xtol=2e-3)
 

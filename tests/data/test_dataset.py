@@ -5,7 +5,7 @@ import pytest
 import torch
 
 from pressurepose.data.dataset import DatasetReader
-from pressurepose.data.pipeline import generate
+from pressurepose.data.generate import generate
 from pressurepose.data.store import read_shard_arrays, shard_name
 from pressurepose.data.torch_dataset import PressureDataset
 from pressurepose.errors import BadInput

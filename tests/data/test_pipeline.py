@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pressurepose.data.generate import generate
 from pressurepose.data.pipeline import (
     GenerationError,
     WorkUnit,
-    generate,
     make_sample,
     plan_units,
 )

@@ -20,7 +20,7 @@ FIELDS = ("pressure", "force", "betas", "joints", "mass")
 @pytest.fixture(scope="module")
 def source(tmp_path_factory):
     """A small randomised physics dataset in two shards."""
-    from pressurepose.data.pipeline import generate
+    from pressurepose.data.generate import generate
 
     out = tmp_path_factory.mktemp("repress") / "src"
     config = GenerationConfig(partition="supine_straight_limbs", gender="m", count=3, seed=5, shard_size=2,

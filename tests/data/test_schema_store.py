@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from pressurepose.data.pipeline import generate
+from pressurepose.data.generate import generate
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.data.store import MANIFEST, Manifest, sha256_file, shard_name
 from pressurepose.errors import BadInput

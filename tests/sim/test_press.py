@@ -362,7 +362,7 @@ def _mesh(m):
 def test_supine_and_prone_bodies_touch_where_anatomy_says():
     from pressurepose.body import BodyModel
     from pressurepose.body.joints import JOINT_NAMES
-    from pressurepose.sim.calibrate import supine_body_mesh
+    from pressurepose.calibrate.objects import supine_body_mesh
 
     bed = get_bed()
     body = BodyModel("female")

@@ -81,7 +81,7 @@ def test_gain_and_threshold_of_the_sensor():
 
 
 def test_randomised_samples_carry_their_conditions(tmp_path):
-    from pressurepose.data.pipeline import generate
+    from pressurepose.data.generate import generate
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.store import read_shard_arrays
 

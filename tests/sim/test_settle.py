@@ -16,7 +16,6 @@ from pressurepose.pose.limits import joint_limits
 from pressurepose.pose.posture import posture_class, posture_classes, roll_angle
 from pressurepose.pose.root import root_axis_angle, world_rotation
 from pressurepose.sim.bed import get_bed
-from pressurepose.sim.calibrate import fit_settle_stiffness
 from pressurepose.sim.cellbed import cell_bed, rigid_sink
 from pressurepose.sim.ragdoll import home_pose, ragdoll_params
 from pressurepose.sim.settle import (
@@ -26,6 +25,7 @@ from pressurepose.sim.settle import (
     settle,
     settle_sink_fn,
 )
+from pressurepose.sim.stiffness import fit_settle_stiffness
 
 G = 9.81
 BED = get_bed()
@@ -411,7 +411,7 @@ def test_settle_config_rejects_a_bad_spine_stiffness(bad):
 def test_settle_presets():
     import argparse
 
-    from pressurepose.sim.commands import add_settle_argument
+    from pressurepose.cli.sim import add_settle_argument
     from pressurepose.sim.settle import SETTLES, settle_preset
 
     assert settle_preset("relaxed") == SettleConfig()

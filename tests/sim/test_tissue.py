@@ -134,7 +134,7 @@ def test_pasternak_with_tissue_meets_the_contact_conditions(pasternak_patch):
 def test_a_body_with_tissue_balances_exactly_and_spreads_its_contact():
     from pressurepose.body import BodyModel
     from pressurepose.body.joints import JOINT_NAMES
-    from pressurepose.sim.calibrate import supine_body_mesh
+    from pressurepose.calibrate.objects import supine_body_mesh
     from pressurepose.sim.tissue import body_bones
 
     bed = get_bed()

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.readers.real import RealImages
+from pressurepose.data.readers.images import RealImages
 from pressurepose.errors import BadInput
 from pressurepose.files import numpy_load_problem
 from pressurepose.mat import MatSpec, custom_mat, get_mat

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.readers.real import RealImages, make_real
+from pressurepose.data.readers.images import RealImages, make_real
 from pressurepose.data.realprep import combine_frames, orient, valid_frames
 from pressurepose.errors import BadInput
 from pressurepose.mat import get_mat

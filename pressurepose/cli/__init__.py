@@ -1,8 +1,9 @@
 """The one command-line entry point: ``pressurepose <verb> [options]``.
 
-Each verb lives in the subpackage that does its work, as a pair of functions
-``add_<name>_arguments(parser)`` and ``run_<name>(args) -> int`` in a ``commands`` module; this
-table is the only place verbs are registered. A verb's module is imported only when it runs.
+Each verb is a pair of functions ``add_<name>_arguments(parser)`` and ``run_<name>(args) -> int``
+in a module of this package named for the floor that does its work (``cli.data`` for ``generate``,
+``cli.net`` for ``train``...); :data:`VERBS` is the only place verbs are registered. A verb's module
+is imported only when it runs.
 """
 
 from __future__ import annotations
@@ -13,38 +14,27 @@ import sys
 
 # verb -> (module, function stem, one-line help)
 VERBS: dict[str, tuple[str, str, str]] = {
-    "convert": ("pressurepose.data.commands", "convert", "convert the official PressurePose release to our datasets, or back"),
-    "demo": ("pressurepose.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
-    "simulate": ("pressurepose.sim.commands", "simulate",
+    "convert": ("pressurepose.cli.data", "convert", "convert the official PressurePose release to our datasets, or back"),
+    "demo": ("pressurepose.cli.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
+    "simulate": ("pressurepose.cli.sim", "simulate",
                  "settle bodies on the bed and press them: pressure images and labels (.npz, --plot)"),
-    "calibrate": ("pressurepose.sim.commands", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
-    "generate": ("pressurepose.data.commands", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
-    "repress": ("pressurepose.data.commands", "repress",
+    "calibrate": ("pressurepose.cli.calibrate", "calibrate", "fit the bed's foundation and sensor constants with CMA-ES"),
+    "generate": ("pressurepose.cli.data", "generate", "generate a labelled dataset (resumable; local cores or Ray)"),
+    "repress": ("pressurepose.cli.data", "repress",
                 "press a dataset's resting bodies again on another bed (tissue, sensor): new images, no settling"),
-    "info": ("pressurepose.data.commands", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
-    "view-body": ("pressurepose.body.commands", "view_body", "draw a body mesh (front and side) with its capsules"),
-    "sample": ("pressurepose.pose.commands", "sample", "draw initial bodies of a posture partition (rejection sampler)"),
-    "train": ("pressurepose.net.commands", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
-    "pack": ("pressurepose.net.commands", "pack",
+    "info": ("pressurepose.cli.data", "info", "summarise a dataset: counts, rejection rates, pressure stats, PNG"),
+    "view-body": ("pressurepose.cli.body", "view_body", "draw a body mesh (front and side) with its capsules"),
+    "sample": ("pressurepose.cli.pose", "sample", "draw initial bodies of a posture partition (rejection sampler)"),
+    "train": ("pressurepose.cli.net", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
+    "pack": ("pressurepose.cli.net", "pack",
              "write a dataset's training arrays to one .npz file to copy to a GPU machine (train --data takes it)"),
-    "infer": ("pressurepose.net.commands", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
-    "evaluate": ("pressurepose.eval.commands", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
-    "evaluate-real": ("pressurepose.eval.commands", "evaluate_real",
+    "infer": ("pressurepose.cli.net", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
+    "evaluate": ("pressurepose.cli.eval", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
+    "evaluate-real": ("pressurepose.cli.eval", "evaluate_real",
                       "score a PressureNet on real pressure images: posture, stature, mass, contact (PMD or labelled folder)"),
-    "realism": ("pressurepose.eval.commands", "realism",
+    "realism": ("pressurepose.cli.eval", "realism",
                 "compare simulated pressure images with real ones by posture: area, region loads, pressures (JSON, PNG)"),
 }
-
-
-def seed_arg(text: str) -> int:
-    """argparse type of --seed: any whole number >= 0 (what numpy's SeedSequence takes)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 0") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text}: seeds are whole numbers >= 0")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -38,11 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.errors import BadInput
-from pressurepose.eval import realism as R
-from pressurepose.eval.realism_report import AREA_RATIO_TOLERANCE, SHARE_GAP_GOAL_PP
-from pressurepose.sim.bed import BedSpec
-from pressurepose.sim.calibrate import (
+from pressurepose.calibrate.objects import (
     PENALTY,
     FitResult,
     bed_params,
@@ -51,6 +47,10 @@ from pressurepose.sim.calibrate import (
     sensor_penalty,
     with_params,
 )
+from pressurepose.errors import BadInput
+from pressurepose.eval import realism as R
+from pressurepose.eval.realism_report import AREA_RATIO_TOLERANCE, SHARE_GAP_GOAL_PP
+from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import (
     Heightfield,
@@ -270,7 +270,7 @@ def simulated_stats(forces: np.ndarray, bodies: list[RestingBody], bed: BedSpec,
 def calibrate_people(bodies: list[RestingBody], targets: PeopleTargets, bed: BedSpec, *,
                      fit: tuple[str, ...] = DEFAULT_FIT, popsize: int = 10, seed: int = 0, max_evals: int = 400,
                      sigma0: float = 0.2, tolfun: float = 1e-3, progress=None) -> FitResult:
-    """Fit ``fit`` (names in :data:`pressurepose.sim.calibrate.PARAMETERS`) so that ``bodies``
+    """Fit ``fit`` (names in :data:`pressurepose.calibrate.objects.PARAMETERS`) so that ``bodies``
     re-pressed on the bed match ``targets`` (:func:`people_loss`); ``bed`` gives the start and
     every constant not fitted, and must be the bed the bodies were sampled on."""
     if not bodies:
@@ -299,102 +299,3 @@ def calibrate_people(bodies: list[RestingBody], targets: PeopleTargets, bed: Bed
 
 
 # ------------------------------------------------------------------ the calibrate verb's --targets real
-def run_people_calibration(args) -> int:
-    """``pressurepose calibrate --targets real --real DIR|realism.json --bodies DATASET``."""
-    import time
-
-    from pressurepose.eval.realism_report import load_real
-    from pressurepose.files import (
-        check_output_path,
-        save_figure_atomic,
-        write_json_atomic,
-    )
-    from pressurepose.sim.bed import bed_for
-
-    if not args.real or not args.bodies:
-        raise BadInput("--targets real needs --real (a real-data folder or a realism.json) and --bodies "
-                       "(a generated dataset or simulate .npz of settled bodies)")
-    out = check_output_path(args.out, "--out", suffixes=(".json",))
-    if args.plot:
-        check_output_path(args.plot, "--plot", suffixes=(".png",))
-    t0 = time.perf_counter()
-    bed = bed_for(args.mat, args.bed)
-    match = None
-    if Path(args.real).is_file():
-        if args.match_extent:
-            raise BadInput("--match-extent needs the real images' statures: give --real a real-data folder, "
-                           "not a realism.json")
-        targets = targets_from_report(args.real)
-    else:
-        real = load_real(args.real, bed.mat)
-        targets = targets_from_images(real.pressure, real.posture, bed.mat, f"{args.real} ({real.name})")
-        if args.match_extent:
-            ratio = R.extent_ratio(real.pressure, bed.mat, real.height)
-            match = {g: ratio[real.posture == g] for g in targets.groups}
-    bodies = resting_bodies(args.bodies, bed, args.per_posture, tuple(g for g in targets.groups), match=match,
-                            seed=args.seed)
-    bodies, dropped = pressable(bodies, bed)
-    if dropped:
-        print(f"note: left out {dropped} bod{'y' if dropped == 1 else 'ies'} the re-press finds no equilibrium "
-              f"for on the starting bed (a tilted body's first-order press tips over)")
-    if not bodies:
-        raise BadInput(f"no body of {args.bodies} can be re-pressed on the starting bed")
-    fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else DEFAULT_FIT
-    if "threshold" in fit and bed.sensor_threshold_mmhg < R.DEFAULT_RULE.contact_mmhg:
-        # below the contact level a threshold changes nothing measured: start where it starts to matter
-        bed = with_params(bed, {"threshold": R.DEFAULT_RULE.contact_mmhg})
-    start_loss = people_loss(simulated_stats(press_forces(bodies, bed), bodies, bed), targets)
-
-    def progress(gen, evals, best):
-        if gen % 5 == 0:
-            print(f"generation {gen}: {evals} evaluations, best loss {best:.4f}", flush=True)
-
-    res = calibrate_people(bodies, targets, bed, fit=fit, popsize=args.popsize or 10, seed=args.seed,
-                           max_evals=args.max_evals or 400, progress=progress)
-    final = simulated_stats(press_forces(bodies, res.bed), bodies, res.bed)
-    tipped = tipping(bodies, res.bed)
-    where = {"fitted": f"CMA-ES on statistics of real images: {targets.source}",
-             "start": f"the shipped bed for the {bed.mat.name} mat (docs/calibration.md: k_A and spread from "
-                      f"documented physical targets, ideal sensor, tissue modulus from docs/physics.md)"}
-    record = {
-        "bed": res.bed.to_dict(), "loss": res.loss, "start_loss": start_loss, "fitted": res.fitted,
-        "constants_from": {k: where["fitted"] if k in fit else where["start"] for k in res.fitted},
-        "evaluations": res.evaluations, "generations": res.generations,
-        "stop": {k: str(v) for k, v in res.stop.items()}, "popsize": args.popsize or 10, "seed": args.seed,
-        "source": {"targets": targets.source, "bodies": str(Path(args.bodies).resolve()),
-                   "bodies_matched_by_extent": bool(match),
-                   "bodies_per_posture": {g: sum(b.posture == g for b in bodies) for g in targets.groups}},
-        "targets": {g: t.__dict__ for g, t in targets.groups.items()},
-        "simulated_after": {g: t.__dict__ for g, t in final.items()},
-        "tipped_after": {g: {"tipped": t, "bodies": n} for g, (t, n) in tipped.items()},
-        "seconds": round(time.perf_counter() - t0, 1)}
-    write_json_atomic(out, record)
-    print(f"loss {start_loss:.4f} -> {res.loss:.4f} after {res.evaluations} evaluations; fitted " +
-          ", ".join(f"{k}={res.fitted[k]:.6g}" for k in fit))
-    for g, t in targets.groups.items():
-        s = final.get(g)
-        if s is not None:
-            print(f"{g}: contact taxels {s.contact_taxels:.0f} (real {t.contact_taxels:.0f}), mean "
-                  f"{s.mean_mmhg:.1f} mmHg ({t.mean_mmhg:.1f}), peak {s.peak_mmhg:.1f} ({t.peak_mmhg:.1f}), worst "
-                  f"region share gap {100 * np.max(np.abs(np.subtract(s.shares, t.shares))):.1f} pp")
-    for g, (t, n) in tipped.items():
-        if t:
-            print(f"warning: {t} of {n} {g} bodies tip over on the fitted bed when pressed in full (the fit's "
-                  f"first-order re-press does not see it); data made on it loses them (press_failed)")
-    print(f"wrote {out}")
-    if args.plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        ax.semilogy(np.arange(1, len(res.history) + 1), np.maximum(res.history, 1e-12))
-        ax.set_xlabel("generation")
-        ax.set_ylabel("best loss")
-        ax.set_title("CMA-ES against real images' statistics", fontsize=9)
-        fig.tight_layout()
-        save_figure_atomic(fig, args.plot, dpi=100)
-        plt.close(fig)
-        print(f"wrote {args.plot}")
-    return 0

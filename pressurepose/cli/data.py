@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from pressurepose.cli import seed_arg
+from pressurepose.cli.args import seed_arg
 from pressurepose.errors import BadInput
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
@@ -45,8 +45,8 @@ def _shards(text: str) -> list[int]:
 
 
 def add_generate_arguments(p: argparse.ArgumentParser) -> None:
-    from pressurepose.pose.commands import add_body_arguments
-    from pressurepose.sim.commands import add_settle_argument
+    from pressurepose.cli.pose import add_body_arguments
+    from pressurepose.cli.sim import add_settle_argument
 
     p.description = (
         "Generate a labelled synthetic dataset (HDF5 shards + manifest.json) into --out. Each sample "
@@ -104,14 +104,15 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_generate(args: argparse.Namespace) -> int:
+    from pressurepose.cli.pose import body_settings
     from pressurepose.data.dataset import SPLITS
-    from pressurepose.data.pipeline import GenerationError, generate
+    from pressurepose.data.generate import generate
+    from pressurepose.data.pipeline import GenerationError
     from pressurepose.data.producers import check_options
     from pressurepose.data.recipes import load_recipe
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.store import MANIFEST
     from pressurepose.files import check_output_path
-    from pressurepose.pose.commands import body_settings
     from pressurepose.sim.bed import bed_for
 
     check_output_path(args.out, "--out", directory=True)

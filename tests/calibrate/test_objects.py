@@ -6,32 +6,34 @@ import numpy as np
 import pytest
 import trimesh
 
-from pressurepose.cli import main
-from pressurepose.errors import BadInput
-from pressurepose.sim import GRAVITY, get_bed, press
-from pressurepose.sim.bed import load_bed
-from pressurepose.sim.calibrate import (
+from pressurepose.calibrate.measurements import (
+    CapsuleMeasurements,
+    load_measurements,
+    save_measurements,
+)
+from pressurepose.calibrate.objects import (
     PhysicalTargets,
     bed_params,
     calibrate,
     calibrate_targets,
     calibration_loss,
-    capsule_mesh,
-    fit_settle_stiffness,
     loss_terms,
     measurement_heightfields,
     minimize_cma,
     readings,
-    simulate,
-    stiffness_from_penetration,
     with_params,
 )
-from pressurepose.sim.calibration_data import (
-    CapsuleMeasurements,
-    load_measurements,
-    save_measurements,
-)
+from pressurepose.cli import main
+from pressurepose.errors import BadInput
+from pressurepose.sim import GRAVITY, get_bed, press
+from pressurepose.sim.bed import load_bed
 from pressurepose.sim.press import mesh_centroid
+from pressurepose.sim.stiffness import (
+    capsule_mesh,
+    fit_settle_stiffness,
+    press_objects,
+    stiffness_from_penetration,
+)
 
 FAST_BED = get_bed(press_cell_m=0.0143)  # 2 x 2 cells per taxel: quick enough for CMA-ES in a test
 
@@ -45,7 +47,7 @@ def synthetic_measurements(bed, hidden: dict) -> CapsuleMeasurements:
     yaw = np.array([0.0, 0.3, 1.57, 0.1])
     blank = CapsuleMeasurements(bed.mat, rad, length, mass, centre, yaw, np.zeros((4,) + bed.mat.shape), np.ones(4))
     truth = with_params(bed, hidden)
-    force, sink = simulate(truth, measurement_heightfields(blank, bed), mass)
+    force, sink = press_objects(truth, measurement_heightfields(blank, bed), mass)
     return CapsuleMeasurements(bed.mat, rad, length, mass, centre, yaw, readings(force, truth), sink)
 
 
@@ -220,7 +222,7 @@ def test_calibrate_verb_writes_a_loadable_bed(tmp_path, capsys):
 
 def test_total_force_of_calibration_objects_is_their_weight():
     data = synthetic_measurements(FAST_BED, {})
-    force, sink = simulate(FAST_BED, measurement_heightfields(data, FAST_BED), data.mass_kg)
+    force, sink = press_objects(FAST_BED, measurement_heightfields(data, FAST_BED), data.mass_kg)
     # all four objects lie inside the sensing area: the mat sees all their weight
     np.testing.assert_allclose(force.sum((1, 2)), data.mass_kg * GRAVITY, rtol=1e-6)
     assert np.all(sink > 0)
@@ -230,7 +232,7 @@ def test_supine_body_lies_head_first_face_up():
     from pressurepose.body import BodyModel
     from pressurepose.body.joints import JOINT_NAMES
     from pressurepose.body.toy import toy_body_arrays
-    from pressurepose.sim.calibrate import supine_body_mesh
+    from pressurepose.calibrate.objects import supine_body_mesh
 
     body = BodyModel(toy_body_arrays())
     bed = get_bed()

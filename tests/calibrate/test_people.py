@@ -10,11 +10,11 @@ import pytest
 
 from pressurepose.body import BodyModel
 from pressurepose.body.joints import joint_index
+from pressurepose.calibrate import people as C
+from pressurepose.calibrate.objects import with_params
 from pressurepose.errors import BadInput
 from pressurepose.eval import realism as R
-from pressurepose.sim import calibrate_people as C
 from pressurepose.sim.bed import get_bed
-from pressurepose.sim.calibrate import with_params
 
 FAST_BED = get_bed(press_cell_m=0.0143)  # 2 x 2 cells per taxel
 SUPINE_ROOT = np.array([0.0, -np.pi / np.sqrt(2), -np.pi / np.sqrt(2)])

@@ -1,12 +1,10 @@
 """Fit the bed's foundation and sensor constants with CMA-ES (paper, appendix A.4 and A.5).
 
 * :func:`calibrate` fits them to real measurements (rigid capsules of known size and weight, the
-  mat's image under each and how far each sank; :mod:`pressurepose.sim.calibration_data`) by
+  mat's image under each and how far each sank; :mod:`pressurepose.calibrate.measurements`) by
   minimising the paper's loss ``L_F + L_C + L_Q`` per object (:func:`calibration_loss`).
 * :func:`calibrate_targets` fits them to documented physical targets when there is no real data
   (default :data:`DEFAULT_TARGETS`: sink depth and peak pressure of an average body).
-* :func:`fit_settle_stiffness` finds the contact stiffness of any other (e.g. dynamic) bed model
-  at which objects sink as measured (appendix A.5), given a function that simulates the sinks.
 
 Each fitted constant is searched in a box (:data:`PARAMETERS`), mapped to [0, 1] for CMA-ES;
 proposals outside the box or making the sensor's response fall with rising pressure are
@@ -20,11 +18,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 
+from pressurepose.calibrate.measurements import CapsuleMeasurements
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BONE_PARTS, BedSpec
-from pressurepose.sim.calibration_data import CapsuleMeasurements
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import (
     Heightfield,
@@ -33,6 +30,7 @@ from pressurepose.sim.press import (
     press_heightfield,
 )
 from pressurepose.sim.sensor import MMHG_PA, sensor_law
+from pressurepose.sim.stiffness import capsule_mesh, press_objects
 
 PENALTY = 10.0  # loss of a proposal the bed cannot simulate (the loss of a good fit is ~0.01-0.1)
 
@@ -88,20 +86,6 @@ def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
 
 
 # ------------------------------------------------------------------ objects and loss
-def capsule_mesh(radius: float, length: float, center_xy, yaw: float, sections: int = 32):
-    """A capsule lying on the unloaded bed: axis horizontal at angle ``yaw`` from x, lowest point
-    at z = 0. Returns (vertices (V, 3), faces (F, 3))."""
-    import trimesh
-
-    cap = trimesh.creation.capsule(height=length - 2 * radius, radius=radius, count=[sections, sections])
-    v = cap.vertices - (cap.vertices.max(0) + cap.vertices.min(0)) / 2  # centre it
-    v = v[:, [2, 0, 1]]  # axis z -> x
-    c, s = math.cos(yaw), math.sin(yaw)
-    v = v @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    v += np.array([center_xy[0], center_xy[1], radius])
-    return v, np.asarray(cap.faces)
-
-
 def measurement_heightfields(data: CapsuleMeasurements, bed: BedSpec) -> list[Heightfield]:
     """Each measured object's lower surface on ``bed``'s press grid (computed once per fit)."""
     if bed.mat.shape != data.mat.shape or not np.allclose(
@@ -109,12 +93,6 @@ def measurement_heightfields(data: CapsuleMeasurements, bed: BedSpec) -> list[He
         raise BadInput(f"the bed's {bed.mat.name} mat differs from the measurements' {data.mat.name} mat")
     return [body_heightfield(*capsule_mesh(data.radius_m[j], data.length_m[j], data.center_xy_m[j],
                                            data.yaw_rad[j]), bed) for j in range(len(data))]
-
-
-def simulate(bed: BedSpec, fields: list[Heightfield], masses) -> tuple[np.ndarray, np.ndarray]:
-    """Taxel forces (J, rows, cols) N and sink depths (J,) m of objects on ``bed``."""
-    results = [press_heightfield(hf, float(m), bed) for hf, m in zip(fields, masses)]
-    return np.stack([r.force for r in results]), np.array([r.sink_m for r in results])
 
 
 def readings(force_n: np.ndarray, bed: BedSpec) -> np.ndarray:
@@ -225,7 +203,7 @@ def calibrate(data: CapsuleMeasurements, bed: BedSpec | None = None, *,
     carrying the measurements' mat).
     """
     if not isinstance(data, CapsuleMeasurements):
-        raise BadInput("data must be CapsuleMeasurements (see pressurepose.sim.calibration_data)")
+        raise BadInput("data must be CapsuleMeasurements (see pressurepose.calibrate.measurements)")
     bed = BedSpec(mat=data.mat) if bed is None else bed
     fields = measurement_heightfields(data, bed)
     cache: dict = {}
@@ -236,7 +214,7 @@ def calibrate(data: CapsuleMeasurements, bed: BedSpec | None = None, *,
         if key not in cache:  # a new sensor alone needs no new press
             cache.clear()
             try:
-                cache[key] = simulate(trial, fields, data.mass_kg)
+                cache[key] = press_objects(trial, fields, data.mass_kg)
             except PressFailed:
                 cache[key] = None
         if cache[key] is None:
@@ -332,51 +310,3 @@ def calibrate_targets(vertices, faces, targets: PhysicalTargets = DEFAULT_TARGET
     return FitResult(fitted_bed, loss, bed_params(fitted_bed), evals, gens, hist, stop)
 
 
-# ------------------------------------------------------------------ the settle model's stiffness (A.5)
-@dataclass(frozen=True)
-class SettleStiffness:
-    """stiffness: the fitted constant; sinks: the simulated sinks there (m); relative_error: per
-    object (sim - measured) / measured."""
-
-    stiffness: float
-    sinks: np.ndarray
-    relative_error: np.ndarray
-
-
-def fit_settle_stiffness(measured_sink_m, sink_fn, bounds: tuple[float, float] = (1e2, 1e8),
-                         xtol: float = 1e-4) -> SettleStiffness:
-    """The contact stiffness at which a bed model's objects sink as measured (appendix A.5).
-
-    ``sink_fn(k) -> (J,)`` simulates the sinks (m, positive down) of the J measured objects in
-    the caller's model (e.g. MuJoCo) with stiffness ``k`` in whatever unit that model uses; the
-    fit minimises the mean squared relative error over ``log k`` in ``bounds`` (sinks fall as k
-    rises, so the minimum is well defined).
-    """
-    q = np.asarray(measured_sink_m, dtype=np.float64)
-    if q.ndim != 1 or len(q) < 1 or not np.all(np.isfinite(q)) or np.any(q <= 0):
-        raise BadInput(f"measured_sink_m has shape {q.shape}; expected (J,) positive sink depths in metres")
-    lo, hi = bounds
-    if not (0 < lo < hi and math.isfinite(hi)):
-        raise BadInput(f"bounds {bounds!r} must be 0 < low < high")
-
-    def err(log_k):
-        s = np.asarray(sink_fn(10.0 ** log_k), dtype=np.float64)
-        if s.shape != q.shape:
-            raise BadInput(f"sink_fn returned shape {s.shape}; expected {q.shape}")
-        return float(np.mean(((s - q) / q) ** 2)) if np.all(np.isfinite(s)) else np.inf
-
-    res = scipy.optimize.minimize_scalar(err, bounds=(math.log10(lo), math.log10(hi)), method="bounded",
-                                         options={"xatol": xtol})
-    k = 10.0 ** res.x
-    s = np.asarray(sink_fn(k), dtype=np.float64)
-    return SettleStiffness(float(k), s, (s - q) / q)
-
-
-def stiffness_from_penetration(weights_n, penetration_sums_m) -> float:
-    """The paper's A.5 average: ``k = mean_j(w_j / sum_i x_ij)`` for objects of weight w_j held at
-    their measured sink with particle penetrations x_ij (N/m)."""
-    w = np.asarray(weights_n, dtype=np.float64)
-    x = np.asarray(penetration_sums_m, dtype=np.float64)
-    if w.shape != x.shape or w.ndim != 1 or np.any(w <= 0) or np.any(x <= 0) or not np.all(np.isfinite(w / x)):
-        raise BadInput("weights_n and penetration_sums_m must be equal-length positive arrays")
-    return float(np.mean(w / x))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.cli import seed_arg
+from pressurepose.cli.args import seed_arg
 
 
 def add_demo_arguments(p: argparse.ArgumentParser) -> None:

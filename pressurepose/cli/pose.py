@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pressurepose.cli import seed_arg
+from pressurepose.cli.args import seed_arg
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
 MAX_COUNT = 100_000  # bodies per file: about 1.4 kB each in memory, and the file is written at the end
@@ -120,7 +120,7 @@ def run_sample(args) -> int:
     print("rejected: " + ", ".join(f"{c} {n}" for c, n in batch.rejections.items() if n)
           + f" (of {attempts['limb_candidates']} limb candidates, {attempts['full_poses']} whole poses)")
     if args.plot:
-        from pressurepose.pose.plot import plot_samples
+        from pressurepose.viz.samples import plot_samples
 
         fig = plot_samples(batch, body, config.mattress, DEFAULT_SENSING)
         save_figure_atomic(fig, args.plot, dpi=110)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pressurepose.cli import seed_arg
+from pressurepose.cli.args import seed_arg
 
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
@@ -192,7 +192,10 @@ def run_infer(args) -> int:
                                   what=str(args.pressure_file)):
         print(f"warning: {note}", file=sys.stderr)
     est = estimate(pressure, gender, model=net, progress=pressure.ndim == 3 and len(pressure) > 64, mirror=args.mirror)
-    paths = est.save(args.out, mesh_format=args.mesh_format, max_figures=args.max_figures)
+    from pressurepose.viz.estimate import save_estimate_figures
+
+    paths = est.save(args.out, mesh_format=args.mesh_format)
+    paths += save_estimate_figures(est, args.out, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
     for i in range(min(len(est), 5)):
         root = est.joints[i, 0]

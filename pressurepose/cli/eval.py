@@ -19,13 +19,14 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
-    from pressurepose.net.commands import add_body_arguments, add_mirror_argument
+    from pressurepose.cli.net import add_body_arguments, add_mirror_argument
 
     add_mirror_argument(p)
     add_body_arguments(p)
 
 
 def run_evaluate(args) -> int:
+    from pressurepose.cli.net import body_specs
     from pressurepose.errors import BadInput
     from pressurepose.eval.report import evaluate, format_table
     from pressurepose.files import (
@@ -33,7 +34,6 @@ def run_evaluate(args) -> int:
         write_json_atomic,
         write_text_atomic,
     )
-    from pressurepose.net.commands import body_specs
     from pressurepose.net.data import load_dataset
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.train import resolve_device
@@ -95,7 +95,7 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
-    from pressurepose.net.commands import add_mirror_argument
+    from pressurepose.cli.net import add_mirror_argument
 
     add_mirror_argument(p)
 
@@ -113,7 +113,6 @@ def run_evaluate_real(args) -> int:
         format_confusion,
         format_real_table,
         format_subject_table,
-        gallery_figure,
     )
     from pressurepose.files import (
         check_output_path,
@@ -123,6 +122,7 @@ def run_evaluate_real(args) -> int:
     )
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.train import resolve_device
+    from pressurepose.viz.gallery import gallery_figure
 
     out = check_output_path(args.out, "--out", directory=True)
     device = resolve_device(args.device)

@@ -1,0 +1,77 @@
+"""Make (or finish) a dataset: plan the work units of the shards still to make, run them on local
+processes or Ray (:mod:`.executors`), and commit each finished shard (:mod:`.pipeline`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from pressurepose.data.executors import check_executor, run_units
+from pressurepose.data.pipeline import (
+    ShardAssembler,
+    check_shards,
+    commit_result,
+    open_output,
+    plan_units,
+)
+from pressurepose.data.producers import resolve_producer
+from pressurepose.data.schema import GenerationConfig
+from pressurepose.data.store import Manifest
+from pressurepose.errors import BadInput
+from pressurepose.mat import get_mat
+
+
+@dataclass
+class RunReport:
+    out: Path
+    manifest: Manifest
+    made: int          # shards made by this run
+    skipped: int       # shards already finished
+    seconds: float
+    retries: int
+    unit_cpu_seconds: float  # CPU time spent making this run's shards, summed over workers
+
+
+def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray_address: str | None = None,
+             retries: int = 2, progress: bool = True, repair: bool = False,
+             only_shards: list[int] | None = None) -> RunReport:
+    """Make (or finish) the dataset of ``config`` in ``out``; rerunning continues where it stopped.
+
+    workers: local processes (1 = in this process); ray_address: run on Ray instead (``"local"`` starts
+    a local instance); retries: extra tries for a failing unit before GenerationError; repair: set
+    corrupt shards aside and remake them; only_shards: make just these shards (the rest may stay
+    missing). Returns a :class:`RunReport`.
+    """
+    from pressurepose.data.progress import ProgressBar
+
+    t0 = time.perf_counter()
+    out = Path(out)
+    get_mat(config.mat)  # unknown mats fail here, before anything is written
+    resolve_producer(config.producer)
+    check_executor(workers, ray_address, retries)
+    if only_shards is not None:  # before anything is written
+        bad = [k for k in only_shards if not 0 <= k < config.num_shards]
+        if bad:
+            raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")
+    manifest = open_output(out, config)
+    todo = check_shards(out, manifest, repair)
+    if only_shards is not None:
+        todo = [k for k in todo if k in set(only_shards)]
+    skipped = config.num_shards - len(todo)
+    unit_cpu = []
+    bar = ProgressBar(total=config.count, initial=manifest.samples_done, enabled=progress,
+                      desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
+    assemble = ShardAssembler(lambda r: (commit_result(out, manifest, r), bar.unit_done(r),
+                                         unit_cpu.append(r.cpu_seconds)))
+    parallel = 1 if ray_address else workers  # Ray: one unit per shard
+    try:
+        retried = run_units(plan_units(config, todo, parallel), workers=workers, ray_address=ray_address,
+                            retries=retries, on_result=assemble, on_progress=bar.attempt,
+                            on_failure=bar.unit_failed)
+    finally:
+        bar.close()
+    if len(manifest.shards) == config.num_shards and not manifest.complete:
+        manifest.complete = True
+        manifest.save(out)
+    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried, sum(unit_cpu))

@@ -1,0 +1,62 @@
+"""Pictures of estimates: the pressure image, the reconstructed map Q and the body from below."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pressurepose.files import save_figure_atomic
+from pressurepose.net.infer import Estimate
+
+
+def estimate_figure(est: Estimate, i: int = 0):
+    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from below
+    through the mat (laid out like the images: row 0 / the head end at the top)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    from pressurepose.viz.mesh import draw_mesh
+
+    fig, axes = plt.subplots(1, 3, figsize=(12, 6))
+    for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
+                                 (axes[1], est.q[i], "reconstructed map Q (PMR)", "mm sink")):
+        im = ax.imshow(img, cmap="magma", interpolation="nearest")
+        ax.set_title(title)
+        fig.colorbar(im, ax=ax, fraction=0.046, label=unit)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    ax = axes[2]
+    w, length = est.grid.size_m
+    ax.add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5", label="mat"))
+    draw_mesh(ax, est.vertices[i], est.faces, view="below")
+    j = est.joints[i]
+    ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red", label="joints")
+    ax.legend(loc="lower right", fontsize=7)
+    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
+    ax.set_xlabel("x across the bed (m)")
+    ax.set_ylabel("-y along the bed (m)")
+    fig.tight_layout()
+    return fig
+
+
+def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
+    """Write ``estimate_000.png``... for the first ``max_figures`` images of ``est`` into ``out_dir``,
+    removing numbered pictures an earlier estimate left there. Returns the paths written."""
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i in range(min(len(est), max_figures)):
+        p = out / f"estimate_{i:03d}.png"
+        fig = estimate_figure(est, i)
+        save_figure_atomic(fig, p, dpi=110)
+        plt.close(fig)
+        paths.append(p)
+    written = set(paths)
+    for stale in out.glob("estimate_[0-9][0-9][0-9].png"):
+        if stale not in written:
+            stale.unlink()
+    return paths

@@ -1,0 +1,31 @@
+"""The package's floors hold at run time too: inference, scoring and the real-data readers load no
+simulator, and the layer contracts in pyproject.toml are the ones `make test` checks."""
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_inference_scoring_and_readers_import_without_mujoco():
+    code = ("import sys, pressurepose.net.infer, pressurepose.eval.real, pressurepose.eval.realism, "
+            "pressurepose.data.readers.real, pressurepose.data.realprep\n"
+            "assert 'mujoco' not in sys.modules, sorted(m for m in sys.modules if 'mujoco' in m)")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+
+
+def test_the_simulator_does_load_mujoco():  # the check above can fail: the settle's import is seen
+    code = "import sys, pressurepose.sim.settle\nassert 'mujoco' in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+
+
+def test_every_subpackage_is_on_a_floor():
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
+    layers = next(c for c in config["contracts"] if c["type"] == "layers")["layers"]
+    named = {m.strip() for layer in layers for m in layer.split("|")}
+    root = REPO / "pressurepose"
+    modules = {f"pressurepose.{p.name}" for p in root.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
+    modules |= {f"pressurepose.{p.stem}" for p in root.glob("*.py") if p.stem != "__init__"}
+    assert modules == named
