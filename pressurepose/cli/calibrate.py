@@ -133,9 +133,10 @@ def _plot_measurements(data, res):
     import matplotlib.pyplot as plt
 
     from pressurepose.calibrate import objects as cal
+    from pressurepose.sim.stiffness import press_objects
 
     fields = cal.measurement_heightfields(data, res.bed)
-    force, sink = cal.simulate(res.bed, fields, data.mass_kg)
+    force, sink = press_objects(res.bed, fields, data.mass_kg)
     sim = cal.readings(force, res.bed)
     n = min(len(data), 6)
     fig, axes = plt.subplots(2, n + 1, figsize=(2.2 * (n + 1), 7), squeeze=False)
