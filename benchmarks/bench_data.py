@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from benchmarks.results import write_section
-from benchmarks.user_path import dataset_counts, run_cli
+from benchmarks.common import dataset_counts, run_cli
 
 
 def run_generation(out: Path, workers: int, count: int, cost_ms: float, producer: str, partition: str,

@@ -41,7 +41,7 @@ import mujoco
 import numpy as np
 
 from benchmarks.results import write_section
-from benchmarks.user_path import dataset_counts, run_cli
+from benchmarks.common import dataset_counts, run_cli
 from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
 
