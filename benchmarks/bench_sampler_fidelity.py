@@ -3,7 +3,7 @@ sampler's own output.
 
     python -m benchmarks.bench_sampler_fidelity [--official PATH] [--count 2700] [--seed 0] [--no-write]
 
-The reference is the 2700 supine female initial poses the paper's public repository ships
+The comparison set is the 2700 supine female initial poses the paper's public repository ships
 (Healthcare-Robotics/bodies-at-rest, ``all_rand_nom_endhtbicheck_roll0_f_lay_set10_2700_fix.npy``,
 here ``supine_f_2700.npy``; found at ``--official``, ``$PRESSUREPOSE_OFFICIAL_SAMPLER`` or a
 ``shared/data/official-sampler`` folder beside the checkout; without it the benchmark says so and
@@ -79,7 +79,7 @@ def geometry_shares(pose: np.ndarray, body) -> dict:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--official", default=None, help="the public sampler's supine file (see the module doc)")
-    p.add_argument("--count", type=int, default=2700, help="bodies to draw [2700, as many as the reference]")
+    p.add_argument("--count", type=int, default=2700, help="bodies to draw [2700, as many as the public file holds]")
     p.add_argument("--seed", type=int, default=0, help="sampler seed [0]")
     p.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = p.parse_args(argv)
