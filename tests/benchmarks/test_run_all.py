@@ -33,3 +33,10 @@ def test_benchmarks_import_only_the_shared_helpers(name):
     imported |= {a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
     own = {m for m in imported if m.split(".")[0] == "benchmarks"}
     assert own <= {"benchmarks.common", "benchmarks.results"}, own
+
+
+def test_sampler_fidelity_skips_without_the_public_file(monkeypatch, capsys):
+    bench = importlib.import_module("benchmarks.bench_sampler_fidelity")
+    monkeypatch.setattr(bench, "official_path", lambda given=None: None)
+    assert bench.main(["--no-write"]) == 0
+    assert "bench_sampler_fidelity: skipped" in capsys.readouterr().out
