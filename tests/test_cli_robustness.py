@@ -1,5 +1,5 @@
 """Every verb under bad input and faults: a clear ``error:`` (exit 2) and no traceback, nothing lost,
-nothing half-written, no wrong answer (issue 16). Physics is kept out: the datasets are toy or
+nothing half-written, no wrong answer. Physics is kept out: the datasets are toy or
 synthetic, the model untrained and tiny, and ``simulate`` runs on a stand-in for ``simulate_one``."""
 
 from __future__ import annotations
@@ -155,7 +155,7 @@ REFUSED = [
                                   "--out", w.root / "x.txt"], ".npz"),
     ("simulate-out-txt", lambda w: ["simulate", "--partition", "general", "--gender", "f",
                                     "--out", w.root / "x.txt"], ".npz"),
-    # found by a new user's pass (session 16): tracebacks, or work done before the refusal
+    # checked before any work is done: a traceback, or work done before the refusal, would be the failure
     ("evaluate-real-bad-device", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                             "--device", "foo"], "not a torch device"),
     ("evaluate-real-contact-negative", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",

@@ -1,4 +1,4 @@
-"""The PressurePose posture partitions (paper appendix A.7, REFERENCE sections 2-3), as data.
+"""The PressurePose posture partitions (paper appendix A.7 and its public code), as data.
 
 Cartesian bins (paper appendix A.1): the distal joint of each limb (ankle, wrist) is placed along
 the bed's long axis (the body lies along it, yawed up to 30 deg) relative to its proximal joint
