@@ -88,7 +88,7 @@ PARTITIONS: dict[str, Partition] = {p.name: p for p in (
               "behind the back (not a paper partition); legs over 4 bins, arms over 8",
               roll=(np.radians(25.0), np.radians(70.0)), either_side=True, wedge=True),
 )}
-# short names used in the issue and the first drafts of the CLI
+# short names the CLI also accepts
 ALIASES: dict[str, str] = {"supine": "general_supine", "crossed_legs": "supine_crossed_legs",
                            "straight_limbs": "supine_straight_limbs"}
 

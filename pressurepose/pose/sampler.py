@@ -48,9 +48,9 @@ bed". That holds for a supine or prone body, whose hips and shoulders lie 0.1-0.
 but on its side the upper hip and shoulder are 0.3-0.45 m up, so the rule starts the upper arm and
 leg in the air (the ankle or wrist up to 0.6 m above the bed); they sink on their soft joints
 while the trunk rests on its narrow side, and the body rolls over. ``height_reference="bed"`` applies the band to the height above the bed instead.
-Measured on ``general`` (seed 13, 200 bodies per gender, settled by :mod:`pressurepose.sim.settle`):
-lateral starts that settled on their side 46 -> 61 of 106 (female), 38 -> 52 (male); supine and prone
-starts settled as before (87 -> 87 female, 85 -> 86 male); settle CPU per accepted body 0.41 -> 0.26 s
+Measured on ``general`` (seed 13, 200 bodies per gender, settled by :mod:`pressurepose.sim.settle`),
+proximal -> bed: lateral starts that settled on their side 46 -> 61 of 106 (female), 38 -> 52 (male);
+supine and prone starts alike (87 -> 87 female, 85 -> 86 male); settle CPU per accepted body 0.41 -> 0.26 s
 (female), 0.62 -> 0.44 s (male). It changes which limb poses every partition draws.
 
 Finally the body is lowered so that its lowest capsule surface is ``clearance`` above the mattress:
