@@ -28,11 +28,12 @@ def test_pmd_i_reads_labels_skips_blank_and_startup_frames(tmp_path):
 
 
 def test_pmd_ii_flips_feet_to_head_and_reads_utf16_subjects(tmp_path):
-    root = write_pmd_ii(tmp_path / "pmd2", subjects=(3,), files=("B1", "R2", "X1"))
+    root = write_pmd_ii(tmp_path / "pmd2", subjects=(3,), files=("B1", "C2", "X1"))
     assert detect_layout(root) == "pmd-ii"
-    r = read_real(root)
+    with pytest.warns(UserWarning, match="2 image"):  # X1 on both mattresses: no such letter in the dataset
+        r = read_real(root)
     assert len(r) == 6 and r.images.shape == (6, 64, 27) and r.mat.name == "boditrak_bt3510"
-    assert sorted(set(r.posture)) == ["", "right", "supine"]
+    assert sorted(set(r.posture)) == ["", "lateral", "supine"]
     assert r.height_m[0] == pytest.approx(1.83) and r.weight_kg[0] == pytest.approx(83)
     np.testing.assert_allclose(r.images[0], np.round(body_image(64, 27, seed=3)), atol=0.6)  # head at row 0 again
     assert r.images[0, :5].sum() < r.images[0, -10:].sum()  # head blob small, legs at the far end

@@ -125,9 +125,9 @@ def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
                             weights=[60, 90], genders=["f", "m"])
     real = read_real(folder)
     res = evaluate_real(real, resolve_model(None), RealEvalConfig())
-    force = res["input"].sum((1, 2)) * MMHG_PA * 0.0286 ** 2
+    force = res.input.sum((1, 2)) * MMHG_PA * 0.0286 ** 2
     np.testing.assert_allclose(force, np.array([60, 90]) * 9.80665, rtol=1e-4)
-    assert res["summary"]["n_estimates"] == 2 and res["skipped"] == {"inclined_bed": 0, "weak_recording": 0}
+    assert res.summary["n_estimates"] == 2 and res.skipped == {"inclined_bed": 0, "weak_recording": 0}
 
 
 def test_wedge_postures_are_summarised_apart_as_well():
