@@ -114,7 +114,7 @@ class RealEvaluation:
     """What :func:`evaluate_real` found: K estimates (an image read with one body model each).
 
     rows: {name: (K,) array}: image (index into the scored images), subject, posture (label),
-    detail, source, body_model, predicted (class), scored, correct, roll_deg, stature_m, height_m,
+    detail, source, frame (index in the source file, -1 for a median of its frames), body_model, predicted (class), scored, correct, roll_deg, stature_m, height_m,
     stature_err_m, mass_kg, weight_kg, mass_err_kg, contact_iou. estimate: the K estimates. input:
     (K, R, C) mmHg the model input. summary: :func:`summarise`. skipped: {reason: count of images
     left out}. n_images: images scored. contact_mmhg: the input's contact threshold for the IoU.
@@ -166,7 +166,7 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],
-            "source": r.source[idx], "body_model": np.array(genders), "predicted": pred,
+            "source": r.source[idx], "frame": r.frame[idx], "body_model": np.array(genders), "predicted": pred,
             "scored": np.isin(r.posture[idx], ("supine", "left", "right", "lateral", "prone")),
             "correct": posture_correct(r.posture[idx], pred), "roll_deg": np.degrees(roll_angle(est.pose)),
             "stature_m": h, "height_m": r.height_m[idx],
@@ -232,9 +232,10 @@ def summarise(rows: dict) -> dict:
 
 
 def is_wedge(details) -> np.ndarray:
-    """(N,) bool: source postures recorded on a wedge (PMD postures 4-7: the body turned 30 or 60
-    degrees and propped, labelled left or right by the source; at 30 degrees the project's posture
-    classes, split at 45 degrees of roll, call such a body supine)."""
+    """(N,) bool: source postures recorded on a wedge (PMD-I postures 4-7: the body turned 30 or 60
+    degrees and propped, labelled left or right by the source; PMD-II E1-E6, turned part-way onto
+    either side on a support, labelled 'lateral'; at 30 degrees the project's posture classes, split
+    at 45 degrees of roll, call such a body supine)."""
     return detail_has(details, ("wedge",))
 
 

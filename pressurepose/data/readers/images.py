@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.data.realprep import UNITS, prepare
+from pressurepose.data.realprep import prepare
 from pressurepose.errors import BadInput
 from pressurepose.mat import MatSpec
 

@@ -27,7 +27,11 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.data.readers.images import RealImages
-from pressurepose.data.readers.labelled import gain_of_record, mat_of_record, read_mat_record
+from pressurepose.data.readers.labelled import (
+    gain_of_record,
+    mat_of_record,
+    read_mat_record,
+)
 from pressurepose.data.readers.pmd import read_frame_lines, read_image_lines
 from pressurepose.data.realprep import UNITS, orient, valid_frames
 from pressurepose.errors import BadInput
