@@ -2,7 +2,8 @@
 
 * :func:`load_real`: a real-data folder (PMD or a generic labelled folder, through
   :func:`pressurepose.data.readers.real.read_real`) prepared as the simulated images are made:
-  weight-normalised mmHg resampled onto the simulated mat (:func:`pressurepose.data.realprep.prepare`);
+  weight-normalised mmHg resampled onto the simulated mat
+  (:meth:`~pressurepose.data.readers.images.RealImages.model_input`, the road every real image takes);
   inclined-bed and weak recordings, and (by default) images whose source posture names a wedge,
   are left out.
 * :func:`load_synthetic`: a generated dataset (directory) or a ``pressurepose simulate`` ``.npz``;
@@ -63,7 +64,6 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
     """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring);
     ``only_detail``: keep only images whose source posture names one of these words (e.g. "wedge")."""
     from pressurepose.data.readers.real import read_real
-    from pressurepose.data.realprep import prepare
 
     real = read_real(folder, frames=frames)
     group = R.posture_group(real.posture)
@@ -72,7 +72,7 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
         raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label"
                        + (f" naming {' or '.join(only_detail)}" if only_detail else ""))
     r = real.select(keep)
-    x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
+    x = r.model_input(mat)
     return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat,
                     height=np.asarray(r.height_m, dtype=np.float64), subject=np.asarray(r.subject, dtype=str))
 
