@@ -126,3 +126,14 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "both --female and --male" in err and "not the one this model was trained with" in err
     assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err and "--gender is needed" in err
+
+
+def test_the_estimates_maps_read_the_bodys_lower_surface(model_path):
+    from pressurepose.net.pmr import SURFACE_CELL_M, lower_surface_map
+
+    est = estimate(toy_dataset(3, grid=GRID)["pressure"], "f", model=model_path)
+    low, _ = lower_surface_map(torch.tensor(est.vertices), torch.tensor(est.faces), est.grid, SURFACE_CELL_M, 1.0)
+    low = low.numpy()
+    assert (low < 0).any() and (low > 0).any()
+    np.testing.assert_array_equal(est.contact, low < 0)  # no taxel under the sunk surface is left out
+    np.testing.assert_allclose(est.q, 1000 * np.maximum(-low, 0), atol=1e-3)
