@@ -41,18 +41,6 @@ def gallery_picks(rows: dict, count: int) -> list[tuple[str, int]]:
     return [("best", i) for i in best] + [("worst", i) for i in worst]
 
 
-def body_extent(vertices: np.ndarray, size_m: tuple[float, float], margin_m: float = 0.05) -> tuple[float, ...]:
-    """(x0, x1, y0, y1) of the view from below that holds the mat (``size_m`` = (width, length))
-    and every body of vertices (K, V, 3), with ``margin_m`` around: x across the bed, the plot's
-    y = -y of the bed (the head end at the top)."""
-    w, length = size_m
-    x0 = min(0.0, float(vertices[..., 0].min())) - margin_m
-    x1 = max(w, float(vertices[..., 0].max())) + margin_m
-    y0 = min(-length, float(-vertices[..., 1].max())) - margin_m
-    y1 = max(0.0, float(-vertices[..., 1].min())) + margin_m
-    return x0, x1, y0, y1
-
-
 def _row_title(kind: str, rows: dict, i: int) -> str:
     if not rows["scored"][i]:
         posture = f"posture {rows['predicted'][i]} (label {rows['posture'][i]}, not scored)"
@@ -84,12 +72,12 @@ def gallery_figure(result, count: int = 3):
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import draw_mesh
+    from pressurepose.viz.mesh import below_extent, draw_mesh
 
     picks = gallery_picks(rows, count)
     idx = [i for _, i in picks]
     w, length = est.grid.size_m
-    x0, x1, y0, y1 = body_extent(est.vertices[idx], (w, length))
+    x0, x1, y0, y1 = below_extent(est.vertices[idx], (w, length))
     p_max = max(float(x[idx].max()), 1e-6)
     q_max = max(float(est.q[idx].max()), 1e-6)
     fig = plt.figure(figsize=(10, 5.2 * len(picks) + 0.6), layout="constrained")
