@@ -300,13 +300,13 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
-    vertices = cat(lambda a, b: b.vertices)
-    faces = net.body.faces.cpu()
-    maps = [surface_maps(torch.from_numpy(vertices[s:s + 32]), faces, net.config.grid, net.config.pmr)
-            for s in range(0, len(vertices), 32)]  # ~50 000 (triangle, cell) pairs per body
+    # the final bodies' maps from their lower surface, on the model's device, 32 bodies at a time
+    # (~30 000 triangle-cell pairs each)
+    maps = [surface_maps(o2.vertices[s:s + 32], net.body.faces, net.config.grid, net.config.pmr)
+            for _, o2 in parts for s in range(0, o2.vertices.shape[0], 32)]
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
-                    vertices=vertices, faces=net.body.faces.cpu().numpy(),
-                    pressure=arr, q=torch.cat([m.q for m in maps]).numpy(),
-                    contact=torch.cat([m.contact for m in maps]).numpy(),
+                    vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
+                    pressure=arr, q=torch.cat([m.q for m in maps]).float().cpu().numpy(),
+                    contact=torch.cat([m.contact for m in maps]).float().cpu().numpy(),
                     gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror))
