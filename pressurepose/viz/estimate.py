@@ -7,7 +7,6 @@ from pathlib import Path
 from pressurepose.files import save_figure_atomic
 from pressurepose.net.infer import Estimate
 
-
 CAPTION = ("Q is how far the estimated body's lower surface lies below the mattress top at each taxel. Where the "
            "image reads pressure and Q reads 0, the estimate has no part of the body sunk there: a limb or head "
            "placed a few cm off, or held above the mattress (docs/real-mats.md).")
