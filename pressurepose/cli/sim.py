@@ -186,17 +186,22 @@ def _plot_simulated(body, bed, done):
     n = len(done)
     fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False,
                              layout="constrained")
-    for (a_img, a_side), s in zip(axes, done):
+    verts = np.concatenate([body.forward(s["betas"], s["pose"], s["transl"])[0] for s in done])
+    # one frame for every side view, the whole mat's length and every body in it: one scale for all rows
+    side_y = (min(0.0, float(verts[..., 1].min())) - 0.05, max(-extent[2], float(verts[..., 1].max())) + 0.05)
+    side_z = (float(verts[..., 2].min()) - 0.03, float(verts[..., 2].max()) + 0.03)
+    for (a_img, a_side), s, v in zip(axes, done, verts):
         im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax)
         a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
         a_img.set_xlabel("x across the bed (m)")
         a_img.set_ylabel("-y along the bed (m)")
-        verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
-        draw_mesh(a_side, verts[0], body.faces, "bed_side")
+        draw_mesh(a_side, v, body.faces, "bed_side")
         wedge = Wedge.from_array(s["wedge"])
         if wedge is not None:
             _draw_wedge_side(a_side, wedge)
         a_side.axhline(0.0, color="0.4", lw=1)
+        a_side.set_xlim(*side_y)
+        a_side.set_ylim(*side_z)
         a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
         a_side.set_xlabel("y along the bed (m)")
     fig.colorbar(im, ax=axes[:, 0], location="top", aspect=15, label="pressure (mmHg)")
