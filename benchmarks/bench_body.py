@@ -1,6 +1,6 @@
 """Body speed: torch forward pass at batch 128 on CPU, and the per-sample capsule computation.
 
-    .venv/bin/python -m benchmarks.bench_body [--threads 1] [--repeats 5]
+    python -m benchmarks.bench_body [--threads 1] [--repeats 5]
 
 Prints the figures and replaces the ``bench:body`` section of docs/RESULTS.md.
 """
@@ -125,8 +125,8 @@ def main(argv=None) -> int:
     lines = [
         "## Body model speed (`benchmarks/bench_body.py`)",
         "",
-        f"{datetime.date.today().isoformat()}, {platform.platform()}, {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} CPUs, torch {torch.__version__} with {args.threads} thread(s); {label}, "
+        f"`python -m benchmarks.bench_body`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__} with {args.threads} thread(s); {label}, "
         f"{body.num_vertices} vertices. Best of {args.repeats}.",
         "",
         f"| torch body layer, batch {args.batch}, CPU | ms per batch | ms per body |",

@@ -1,6 +1,6 @@
 """Calibration check: CMA-ES recovering five hidden bed constants from synthetic capsule measurements.
 
-    .venv/bin/python -m benchmarks.bench_calibrate [--popsize 50] [--seed 0] [--no-write]
+    python -m benchmarks.bench_calibrate [--popsize 50] [--seed 0] [--no-write]
 
 Ten capsules as in the paper (20 cm long with 1.3-14 kg, 40 cm long with 1.3-18 kg) are pressed on the
 BodiTrak bed with hidden constants; their images and sinks become the "measurements"; the fit starts
@@ -66,7 +66,8 @@ def main(argv=None) -> int:
     lines = [
         "## Calibration recovers hidden constants (`benchmarks/bench_calibrate.py`)",
         "",
-        f"{datetime.date.today().isoformat()}, {platform.platform()}, {os.cpu_count()} CPUs (one used; load "
+        f"`python -m benchmarks.bench_calibrate`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"{os.cpu_count()} CPUs (one used; load "
         f"average {load:.1f} at the start). {len(data)} synthetic capsule measurements (the paper's loads) on the "
         f"BodiTrak bed, all five constants fitted by CMA-ES, population {args.popsize}, seed {args.seed}: "
         f"{res.evaluations} evaluations, {seconds:.0f} s, final loss {res.loss:.2e}, stopped on "

@@ -1,7 +1,8 @@
 """Data engine throughput as users run it: ``pressurepose generate`` with 1 and 2 workers, bytes per
 sample, load time.
 
-Run: ``.venv/bin/python -m benchmarks.bench_data`` (a few minutes). Prints the figures and replaces
+Run: ``python -m benchmarks.bench_data`` (a few minutes). Two workers against one is the
+parallel scaling of ``generate`` a user sees. Prints the figures and replaces
 the ``bench:data`` section of docs/RESULTS.md.
 
 The throughput runs are the CLI with its defaults (physics producer, 256-sample shards, so 64
@@ -20,8 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from benchmarks.common import dataset_counts, run_cli
 from benchmarks.results import write_section
-from benchmarks.user_path import dataset_counts, run_cli
 
 
 def run_generation(out: Path, workers: int, count: int, cost_ms: float, producer: str, partition: str,
@@ -86,8 +87,8 @@ def main(argv=None) -> int:
     text = "\n".join([
         "## Data engine (`benchmarks/bench_data.py`)",
         "",
-        f"Machine: {platform.platform()}, {os.cpu_count()} CPUs (shared: load average {load_before[0]:.1f} "
-        f"before, {load_after[0]:.1f} after the throughput runs); {time.strftime('%Y-%m-%d')}. No GPU was lent.",
+        f"`python -m benchmarks.bench_data`; machine: {platform.platform()}, {os.cpu_count()} CPUs (shared: load average {load_before[0]:.1f} "
+        f"before, {load_after[0]:.1f} after the throughput runs); {time.strftime('%Y-%m-%d')}.",
         f"Runs: `pressurepose generate --partition {args.partition} --gender {args.gender} --count {args.count} "
         f"--producer {args.producer} --workers N`, other options at their defaults (256-sample shards: one "
         f"shard)" + (f", {args.cost_ms:g} ms of CPU per attempt (a stand-in cost; not physics)"

@@ -1,7 +1,7 @@
 """PressureNet speed (and, given a model and a test set, accuracy).
 
-    .venv/bin/python -m benchmarks.bench_net [--frames 40] [--train-batch 32] [--no-write]
-    .venv/bin/python -m benchmarks.bench_net --model RUN/model.safetensors --data TEST_DIR   # + accuracy
+    python -m benchmarks.bench_net [--frames 40] [--train-batch 32] [--no-write]
+    python -m benchmarks.bench_net --model RUN/model.safetensors --data TEST_DIR   # + accuracy
 
 Measures, on the BodiTrak 64 x 27 mat (network input 128 x 54), all on one CPU thread and by CPU
 time (``time.process_time``: on a machine shared with other jobs the wall time measures their load,
@@ -47,8 +47,7 @@ from pressurepose.net.pmr import pmr
 GRID = custom_mat(64, 27, 0.0286, 0.0286)
 # (label, cnn variant, bf16 autocast) of the training options measured
 TRAIN_OPTIONS = (("paper CNN, float32 (default)", "paper", False), ("paper CNN, bf16 autocast", "paper", True),
-                 ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True),
-                 ("quarter CNN, float32", "quarter", False), ("quarter CNN, bf16 autocast", "quarter", True))
+                 ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True))
 
 
 def bodies() -> tuple[BodyModel, BodyModel, str]:
@@ -278,7 +277,7 @@ def main(argv=None) -> int:
     lines = [
         "## PressureNet (`benchmarks/bench_net.py`)",
         "",
-        f"Machine: {platform.platform()}, {os.cpu_count()} CPUs (load average {load_before:.1f} before, "
+        f"`python -m benchmarks.bench_net`; machine: {platform.platform()}, {os.cpu_count()} CPUs (load average {load_before:.1f} before, "
         f"{load_after:.1f} after: the machine is shared with other jobs); torch {torch.__version__}, one thread; "
         f"{datetime.date.today().isoformat()}. Bodies: {body_label} ({female.num_vertices} vertices). "
         f"Mat 64 x 27, network input 128 x 54 (flattened CNN features {flattened_size(128, 54):,}). "
@@ -303,12 +302,9 @@ def main(argv=None) -> int:
         "",
         f"Training on the CPU, one thread, batch {args.train_batch}, the training loop's steps (noise, input "
         f"transform, forward, loss, backward, Adam); median of {args.train_steps} steps. The paper's CNN in "
-        "float32 is the default; the others are options (`train --cnn half|quarter`, `--cpu-amp`). The half CNN "
-        "was measured against the paper's on two seeds of the shipped recipe (section cnn-width: the paper CNN "
-        "was no better on real posture and worse on real stature and simulated bodies); the quarter CNN's "
-        "accuracy has not been measured. Each still overfits a tiny set "
-        "(tests/net/test_train_options.py). The shipped model is the half CNN trained with bf16 autocast "
-        "(section shipped_model), which also makes its inference faster than the paper CNN's.",
+        "float32 is the default of `pressurepose train`; the others are options (`train --cnn half`, "
+        "`--cpu-amp`). The shipped model is the half CNN trained with bf16 autocast (section shipped model), "
+        "which also makes its inference faster than the paper CNN's.",
         "",
         "| option | Mod1 (L1) images per CPU-s | x default | Mod2 (L2) images per CPU-s | x default | "
         "Mod1 images per wall-s | operations per step, Mod1 / Mod2 |",
@@ -320,11 +316,7 @@ def main(argv=None) -> int:
         "",
         "Operations per step: tensor operations one training step dispatches (forward, backward and Adam, "
         "counted below autograd, views included). On a GPU a step this small is bound by their number "
-        "rather than by arithmetic (session 13's H200 ran a Mod2 step in about 34 ms), so they are the "
-        "figure to cut for GPU training. Since session 14 the body layer poses its skeleton by pointer "
-        "jumping (four products of all joints' 4 x 4 transforms instead of one product per tree level) and "
-        "makes the Rodrigues formula's cross-product matrices by one exact product, which took the half "
-        "CNN's bf16 steps from 1,813 to 1,087 operations (Mod1) and from 3,099 to 2,045 (Mod2).",
+        "rather than by arithmetic, so they are the figure to cut for GPU training.",
     ]
     if args.compile:
         lines += ["", "torch.compile row: both CNNs compiled by inductor (C++ made by the local gcc, offline); "

@@ -1,6 +1,6 @@
 """Press speed: physics simulation #2 (mesh on the foundation, sensor read-out) per body.
 
-    .venv/bin/python -m benchmarks.bench_press [--bodies 6] [--repeats 3] [--no-write]
+    python -m benchmarks.bench_press [--bodies 6] [--repeats 3] [--no-write]
 
 Bodies: the shipped female model (supine and prone, arms toward the sides, mean and random shapes)
 when it is baked, else a body-sized stand-in built from trimesh capsules. Prints the figures and
@@ -124,8 +124,8 @@ def main(argv=None) -> int:
     lines = [
         "## Press speed (`benchmarks/bench_press.py`)",
         "",
-        f"{datetime.date.today().isoformat()}, {platform.platform()}, {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} CPUs (one used; load average {load:.1f} at the start); "
+        f"`python -m benchmarks.bench_press`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs (one used; load average {load:.1f} at the start); "
         f"{label}, {nverts} vertices. Time per press: the best of "
         f"{args.repeats} runs of `press()` (raster, contact solve, sensor), then the median and worst over bodies.",
         "",

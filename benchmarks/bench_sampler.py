@@ -1,6 +1,6 @@
 """Pose sampler speed and rejection rates per partition (one core, the shipped female body).
 
-    OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_sampler [--scale 1.0] [--no-write]
+    OMP_NUM_THREADS=1 python -m benchmarks.bench_sampler [--scale 1.0] [--no-write]
 
 Accepted bodies per second of CPU time (the process's own, so other work on a shared machine
 counts less) and per second of wall time, the rejection rate of each cause (limb causes per limb
@@ -76,8 +76,8 @@ def main(argv=None) -> int:
     lines = [
         "## Pose sampler (`benchmarks/bench_sampler.py`)",
         "",
-        f"{datetime.date.today().isoformat()}, {platform.platform()}, {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} CPUs (load average {load0:.1f} at the start, {load1:.1f} at the end: a shared "
+        f"`python -m benchmarks.bench_sampler`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs (load average {load0:.1f} at the start, {load1:.1f} at the end: a shared "
         f"machine, so CPU-time rates are the fairer per-core figure), one thread; {label}, seed 1.",
         "",
         "Accepted bodies per second; rejection rates in % of the limb candidates judged (limb causes) or of "
@@ -99,7 +99,7 @@ def main(argv=None) -> int:
               "are redrawn when a limb cannot reach its bin from the body's root and shape (prone leg bins "
               "near the hips), after 20 candidates in the bin fell off the mattress (limbs on bed), and "
               "for crossed legs after 20 leg pairs that did not cross. The into-bed test is opt-in "
-              "(`SamplerConfig(max_limb_sink=...)`, off by default since issue 15), hence 0 here."]
+              "(`SamplerConfig(max_limb_sink=...)`, off by default), hence 0 here."]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:

@@ -1,14 +1,19 @@
-"""Physics simulation #1 (settle): steps to rest, seconds per sample, rejection rates.
+"""The settle (physics simulation #1): steps to rest, CPU seconds per sample, rejection rates; and
+how closely the default settle's rests follow the fine step.
 
-    .venv/bin/python -m benchmarks.bench_settle [--count 20] [--seed 3] [--gender f]
-    .venv/bin/python -m benchmarks.bench_settle --agreement 4 --seed 7   # candidate speed-ups vs the default
+    python -m benchmarks.bench_settle [--count 20] [--seed 3] [--gender f]
+    python -m benchmarks.bench_settle --agreement 6 --seed 7   # the default settle against the fine step
 
-Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up), settles
-each on the default bed with the default :class:`SettleConfig` and, for comparison, with one cell per
-taxel (the cell size REFERENCE section 5 measured); times are CPU seconds of this process (the machine is shared, so wall time would measure the
-neighbours). Also checks the resting criterion: how far capsules still move if the criterion must
-hold 100 steps instead of the default. Prints the figures and replaces the ``bench:settle`` section
-of docs/RESULTS.md.
+Samples bodies with the pose sampler (partitions general, general_supine, prone_hands_up) and settles
+each on the default bed with the default :class:`SettleConfig`; times are CPU seconds of this process
+(on a shared machine wall time would measure the neighbours). Also checks the resting criterion: how
+far capsules still move if the criterion must hold 100 steps instead of the default. Prints the
+figures and replaces the ``bench:settle`` section of docs/RESULTS.md.
+
+``--agreement N`` instead settles N bodies per partition of the paper's recipe and gender with the
+fine step throughout (dt 0.01 s) and with the default (which doubles the step once the body has
+touched down), beside the fine step's own noise floor (the same bodies started a little elsewhere),
+and replaces the ``bench:settle_agreement`` section.
 """
 
 from __future__ import annotations
@@ -31,13 +36,10 @@ from pressurepose.body.masses import segment_masses
 from pressurepose.pose.sampler import sample_bodies
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.ragdoll import ragdoll_params
-from pressurepose.sim.settle import (
-    STATUSES,
-    SettleConfig,
-    calibrate_stiffness,
-    settle,
-    settle_cells,
-)
+from pressurepose.sim.settle import STATUSES, settle
+from pressurepose.sim.settle_config import SettleConfig
+from pressurepose.sim.settle_model import settle_cells
+from pressurepose.sim.settle_stiffness import calibrate_stiffness
 
 PARTITIONS = ("general", "general_supine", "prone_hands_up")
 
@@ -51,8 +53,7 @@ def run(body, samples, bed, config, gender):
             caps = capsules_for(body, batch.betas[i])
             params = ragdoll_params(body, batch.betas[i], gender, caps=caps,
                                     masses=segment_masses(body, batch.betas[i], gender, caps=caps),
-                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness,
-                                    limb_damping_s=config.limb_damping_s)
+                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness)
             t1 = time.process_time()
             res = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, config, params=params)
             rows.append((part, res, t1 - t0, time.process_time() - t1))
@@ -113,25 +114,18 @@ def hold_check(body, samples, bed, config, gender, hold: int, limit: int):
 
 
 
-# Candidate speed-ups checked against the fine step throughout (dt 0.01 s, the settle before
-# session 12; issue 13), each (SettleConfig settings, start offset (3,) m). The "noise floor" rows
-# are the fine settle of bodies started a little elsewhere: how far a rest moves when nothing about
-# the model changes. 2 mm is nothing a user could choose or see (the placement's across-bed spread is
-# 30-80 mm, a settle cell 56-58 mm), yet a creeping limb then stops elsewhere; a speed-up whose rests
-# differ by no more than that keeps the physics.
-REFERENCE = dict(coarse_factor=1.0)
+# Settles checked against the fine step throughout (dt 0.01 s), each (SettleConfig settings, start
+# offset (3,) m). The "noise floor" rows are the fine settle of bodies started a little elsewhere: how
+# far a rest moves when nothing about the model changes. 2 mm is nothing a user could choose or see
+# (the placement's across-bed spread is 30-80 mm, a settle cell 56-58 mm), yet a creeping limb then
+# stops elsewhere; a faster settle whose rests differ by no more than that keeps the physics.
+FINE_STEP = dict(coarse_factor=1.0)
 NO_OFFSET = (0.0, 0.0, 0.0)
 AGREEMENT_CANDIDATES = {
-    "noise floor: start 0.1 mm higher": (dict(REFERENCE, drop_clearance_m=0.0051), NO_OFFSET),
-    "noise floor: start 2 mm across the bed": (REFERENCE, (0.002, 0.0, 0.0)),
-    "noise floor: start 2 mm along the bed": (REFERENCE, (0.0, 0.002, 0.0)),
-    "dt 0.02 s throughout (zeroing, hold, checks and budget kept in seconds)": (dict(
-        REFERENCE, timestep_s=0.02, zero_every=2, rest_hold_steps=10, posture_check_steps=5, max_steps=1000),
-        NO_OFFSET),
+    "noise floor: start 0.1 mm higher": (dict(FINE_STEP, drop_clearance_m=0.0051), NO_OFFSET),
+    "noise floor: start 2 mm across the bed": (FINE_STEP, (0.002, 0.0, 0.0)),
+    "noise floor: start 2 mm along the bed": (FINE_STEP, (0.0, 0.002, 0.0)),
     "**the default**: step doubled from 150 steps after the pelvis touches": (dict(), NO_OFFSET),
-    "step doubled from 50 steps after the pelvis touches": (dict(coarse_after_steps=50), NO_OFFSET),
-    "step tripled from 150 steps after the pelvis touches": (dict(coarse_factor=3.0), NO_OFFSET),
-    "solver tolerance 1e-6 (default 1e-8)": (dict(REFERENCE, tolerance=1e-6), NO_OFFSET),
 }
 AGREEMENT_PARTITIONS = (("general", False), ("general_supine", False), ("hands_behind_head", True),
                         ("prone_hands_up", True), ("supine_crossed_legs", False), ("supine_straight_limbs", False))
@@ -159,15 +153,15 @@ def settle_and_press(body, gender: str, drawn, bed, config, offset=NO_OFFSET):
 
 def agreement(count: int, seed: int) -> list[str]:
     """Settle the first attempt of ``count`` samples per partition and gender (the pose sampler's
-    draws for a dataset with ``seed``) with the reference (the fine step throughout) and with each
-    candidate; compare."""
+    draws for a dataset with ``seed``) with the fine step throughout and with each of
+    :data:`AGREEMENT_CANDIDATES`; compare."""
     from pressurepose.data.producers import attempt_rng
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.sampler import sample_one
 
     bed = get_bed()
-    configs = {"reference": (SettleConfig(**REFERENCE), NO_OFFSET),
+    configs = {"fine step": (SettleConfig(**FINE_STEP), NO_OFFSET),
                **{k: (SettleConfig(**v), off) for k, (v, off) in AGREEMENT_CANDIDATES.items()}}
     out = {name: [] for name in configs}
     for part, plo in AGREEMENT_PARTITIONS:
@@ -178,8 +172,8 @@ def agreement(count: int, seed: int) -> list[str]:
                 drawn = sample_one(part, g, attempt_rng(gc, i, 0), plo, body=body, config=SamplerConfig())
                 for name, (cfg, offset) in configs.items():
                     out[name].append(settle_and_press(body, g, drawn, bed, cfg, offset))
-    ref = out["reference"]
-    lines = ["| candidate | same outcome | both settled | joint error, max over joints: median / 90th pct / max "
+    ref = out["fine step"]
+    lines = ["| settle | same outcome | both settled | joint error, max over joints: median / 90th pct / max "
              "(mm) | within 20 mm | image correlation: median / min | steps | settle CPU |",
              "|---|---|---|---|---|---|---|---|"]
     for name in AGREEMENT_CANDIDATES:
@@ -207,26 +201,26 @@ def main(argv=None) -> int:
     ap.add_argument("--hold-samples", type=int, default=10, help="bodies for the resting-criterion check [10]")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     ap.add_argument("--agreement", type=int, metavar="N", default=0,
-                    help="instead: compare candidate speed-ups with the default settle on N bodies per "
-                         "partition and gender (section bench:settle_agreement)")
+                    help="instead: compare the default settle with the fine step on N bodies per partition "
+                         "and gender (section bench:settle_agreement)")
     args = ap.parse_args(argv)
     if args.agreement:
         lines = agreement(args.agreement, args.seed)
         text = "\n".join([
-            "## Settle speed-ups against the fine step (`benchmarks/bench_settle.py --agreement`)", "",
-            f"{datetime.date.today()}, {platform.platform()}, MuJoCo {mujoco.__version__}. Reproduce: `python -m "
-            f"benchmarks.bench_settle --agreement {args.agreement} --seed {args.seed}`. The first attempt of "
+            "## The default settle against the fine step (`benchmarks/bench_settle.py --agreement`)", "",
+            f"`python -m benchmarks.bench_settle --agreement {args.agreement} --seed {args.seed}`; "
+            f"{datetime.date.today()}, {platform.platform()}, MuJoCo {mujoco.__version__}. The first attempt of "
             f"{args.agreement} samples per partition of the paper's recipe and gender (seed {args.seed}) settled "
-            "with the reference (dt 0.01 s throughout, the settle before session 12) and with each candidate, then "
+            "with the fine step (dt 0.01 s throughout) and with each settle below, then "
             "pressed; errors are between the two resting bodies' joints (the largest over the 24 joints of a "
             "body) and images. CPU is of one process on this machine (ratios only).", "",
             *lines, "",
-            "The noise floor rows are the reference's own sensitivity: the same bodies started 0.1 mm higher, or "
+            "The noise floor rows are the fine step's own sensitivity: the same bodies started 0.1 mm higher, or "
             "2 mm across or along the bed, which no user could choose or see (bodies are placed with a spread of "
             "30-80 mm on cells of 56-58 mm). Most rests then move by millimetres, but a limb creeping on its "
             "damper at the end of a settle stops wherever its speed first falls under the resting threshold, so "
-            "one body in ten moves by centimetres and a few by decimetres. A candidate keeps the physics when "
-            "its rests differ from the reference's no more than that.",
+            "one body in ten moves by centimetres and a few by decimetres. A faster settle keeps the physics "
+            "when its rests differ from the fine step's no more than that.",
         ])
         print(text)
         if not args.no_write:
@@ -237,36 +231,31 @@ def main(argv=None) -> int:
     bed = get_bed()
     samples = {p: sample_bodies(p, args.gender, args.count, args.seed, body=body) for p in PARTITIONS}
     default = SettleConfig()
-    fine = dataclasses.replace(default, taxels_per_cell=1)
-    results = {}
-    for name, cfg in (("default", default), ("one cell per taxel", fine)):
-        rows = run(body, samples, bed, cfg, gender)
-        results[name] = summary(rows)
-        print(name, dict(results[name]["statuses"]), "mean settle CPU s %.3f" % results[name]["cpu"].mean())
+    rows = run(body, samples, bed, default, gender)
+    results = {"default": summary(rows)}
+    print("default", dict(results["default"]["statuses"]), "mean settle CPU s %.3f" % results["default"]["cpu"].mean())
     moves = hold_check(body, samples, bed, default, gender, 100, args.hold_samples)
     print("capsule move with a 100-step hold: median %.4f m, max %.4f m (%d bodies)"
           % (np.median(moves), moves.max(), len(moves)))
 
-    configs = {"default": default, "one cell per taxel": fine}
-    cells = {name: settle_cells(bed, cfg) for name, cfg in configs.items()}
-    stiffness = {name: calibrate_stiffness(bed, cfg) for name, cfg in configs.items()}
+    cells = settle_cells(bed, default)
+    stiffness = calibrate_stiffness(bed, default)
     d = results["default"]
     per_sample = d["cpu"].mean() + d["params"].mean()
     lines = [
-        "## Settle: physics simulation #1 (`benchmarks/bench_settle.py`)", "",
+        "## Settle (`benchmarks/bench_settle.py`)", "",
+        f"`python -m benchmarks.bench_settle --count {args.count} --seed {args.seed} --gender {args.gender}`; "
         f"{datetime.date.today()}, {platform.platform()}, {platform.machine()}, {os.cpu_count()} CPUs (shared "
         f"with other jobs: CPU seconds of this process), MuJoCo {mujoco.__version__}, one thread. Shipped "
         f"{gender} model; {args.count} bodies per partition from the pose sampler (seed {args.seed}); default "
         f"bed ({bed.mat.name}, k_A {bed.stiffness_n_m3:.3g} N/m^3, G {bed.coupling_n_m:.3g} N/m).", "",
-        f"Default config: {cells['default'].ny} x {cells['default'].nx} cells of "
-        f"{1000 * cells['default'].dx:.1f} x {1000 * cells['default'].dy:.1f} mm, {default.cone} friction cones, "
-        f"dt {default.timestep_s} s, rest after {default.rest_hold_steps} steps under 0.05 m/s and 0.5 m/s^2. "
-        f"Comparison: {cells['one cell per taxel'].ny} x {cells['one cell per taxel'].nx} cells "
-        f"(one per taxel, as in REFERENCE section 5). Each config's foundation modulus is fitted so that "
-        f"five body-part capsules sink as deep as in the bed's press model (appendix A.5): "
-        + "; ".join(f"{name}: {st.stiffness:.3g} N/m^3 ({st.stiffness / bed.stiffness_n_m3:.2f} k_A), sink "
-                    f"errors {100 * st.relative_error.min():+.0f} to {100 * st.relative_error.max():+.0f} %"
-                    for name, st in stiffness.items()) + ".", "",
+        f"Default config: {cells.ny} x {cells.nx} cells of {1000 * cells.dx:.1f} x {1000 * cells.dy:.1f} mm, "
+        f"{default.cone} friction cones, dt {default.timestep_s} s ({default.coarse_factor:g}x from "
+        f"{default.coarse_after_steps} steps after the pelvis touches), rest "
+        f"after {default.rest_hold_steps} steps under 0.05 m/s and 0.5 m/s^2. The foundation modulus is fitted so "
+        f"that five body-part capsules sink as deep as in the bed's press model (appendix A.5): "
+        f"{stiffness.stiffness:.3g} N/m^3 ({stiffness.stiffness / bed.stiffness_n_m3:.2f} k_A), sink errors "
+        f"{100 * stiffness.relative_error.min():+.0f} to {100 * stiffness.relative_error.max():+.0f} %.", "",
     ]
     for name in results:
         lines += fmt_table(name, results[name]) + [""]
@@ -279,9 +268,7 @@ def main(argv=None) -> int:
         f"at most {1000 * moves.max():.1f} mm ({len(moves)} bodies). The paper's thresholds let limbs creep "
         f"(a limb under 0.05 m/s counts as resting while its spring, with a 15 s time constant, still pulls "
         f"it toward the home pose), so a longer hold mostly finds a later, different rest; "
-        f"{default.rest_hold_steps} steps only rule out the turning points of rocking.", "",
-        "For scale, REFERENCE section 5 (MuJoCo 3.17, 35 x 72 cells, pyramidal cones): 371 steps and 0.9 s "
-        "per sample on average.",
+        f"{default.rest_hold_steps} steps only rule out the turning points of rocking.",
     ]
     text = "\n".join(lines)
     print(text)

@@ -1,6 +1,6 @@
 """Data generation as users run it: accepted samples per CPU-second of ``pressurepose generate``.
 
-    .venv/bin/python -m benchmarks.bench_simulate [--count 16] [--seed 5] [--recipe-scale 0.003] [--no-write]
+    python -m benchmarks.bench_simulate [--count 16] [--seed 5] [--recipe-scale 0.003] [--no-write]
 
 Throughput is measured on the user's path: the CLI with its defaults (physics producer, default
 bed and mat, one worker), a fresh process per run, timed by the CPU time of its whole process tree
@@ -21,7 +21,7 @@ seconds they ran before rejection, and the CPU split between pose sampling, sett
 Start-up is the CPU of a one-sample run minus that sample's attempts, with the settle stiffness
 read from the cache and, once, fitted afresh (an empty cache, as on a machine's first run).
 
-Goal (issue 13): at least 3 accepted samples per CPU-second on one core, start-up included, for
+Goal: at least 3 accepted samples per CPU-second on one core, start-up included, for
 ``general`` and for the recipe mix. Prints the figures and replaces the ``bench:simulate`` section
 of docs/RESULTS.md.
 """
@@ -40,8 +40,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from benchmarks.common import dataset_counts, run_cli
 from benchmarks.results import write_section
-from benchmarks.user_path import dataset_counts, run_cli
 from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
 
@@ -65,7 +65,7 @@ def breakdown(config: GenerationConfig) -> dict:
     """Every attempt of ``config``'s samples, made by the physics producer's own call
     (:func:`pressurepose.sim.simulate.simulate_one`), with its settle steps and the CPU of its phases."""
     from pressurepose.data.physics import sampler_config, setup
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     body, bed = setup(config)
     rows = []  # (status, steps, sample s, settle s, press s)
@@ -74,7 +74,7 @@ def breakdown(config: GenerationConfig) -> dict:
             t: dict = {}
             res = simulate_one(body, bed, config.partition, config.gender, attempt_rng(config, i, attempt),
                                config.limbs_on_bed, sampler_config(config), timings=t)
-            status = res if isinstance(res, str) else "settled"
+            status = res.cause if isinstance(res, Rejected) else "settled"
             rows.append((status, t["steps"], t["sample"], t["settle"], t["press"]))
             if status == "settled":
                 break
@@ -178,9 +178,10 @@ def main(argv=None) -> int:
     per_step = [sum(x[3] for x in r["rows"]) / max(1, sum(x[1] for x in r["rows"])) for r in results.values()]
     text = "\n".join([
         "## Data generation as users run it (`benchmarks/bench_simulate.py`)", "",
-        f"{datetime.date.today()}, {platform.platform()}, {os.cpu_count()} CPUs shared with other jobs (load "
+        f"`python -m benchmarks.bench_simulate`; {datetime.date.today()}, {platform.platform()}, {os.cpu_count()} "
+        f"CPUs shared with other jobs (load "
         f"average {load_before[0]:.1f} before, {load_after[0]:.1f} after), MuJoCo {mujoco.__version__}, "
-        f"OMP_NUM_THREADS=1. No GPU was lent for this measurement (the simulation is CPU-only).", "",
+        f"OMP_NUM_THREADS=1 (the simulation is CPU-only).", "",
         f"Each row is one `pressurepose generate --partition P --gender G --count {args.count} --seed {args.seed}` "
         "with every other option at its default (one worker), in a fresh process; its CPU is that of the whole "
         "process tree, start-up included. Steps, rejections and the CPU split come from the same attempts "
@@ -197,7 +198,7 @@ def main(argv=None) -> int:
         f"process, {recipe_counts['samples']} samples, {recipe_counts['attempts']} attempts): "
         f"**{recipe_rate:.2f} accepted samples per CPU-second**; the rows above, weighted by the paper's "
         f"full-scale mix of partitions and genders, predict {predicted:.2f} (entries with limbs over the bed "
-        f"at their partition's rate without). Goal: {GOAL:g} (issue 13).",
+        f"at their partition's rate without). Goal: {GOAL:g}.",
     ])
     print(text)
     if not args.no_write:

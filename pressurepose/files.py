@@ -12,6 +12,7 @@ import errno
 import json
 import os
 import secrets
+import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -149,6 +150,7 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
             probe = probe.parent
         if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
             raise BadInput(f"{what} {path}: cannot create or write in {probe} (not a writable folder)")
+        _try_folder(path, what)
         return path
     if path.name in ("", ".", "..") or str(path).endswith(os.sep):
         raise BadInput(f"{what} {path!s} names a folder; expected a file name")
@@ -166,12 +168,37 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
     return path
 
 
+def _try_folder(path: Path, what: str) -> None:
+    """Create ``path`` and a file in it, then remove what was created: some folders pass a permission
+    check and still refuse (``/proc``, ``/sys``, read-only mounts)."""
+    created = []
+    probe = path
+    while not probe.exists():
+        created.append(probe)
+        probe = probe.parent
+    try:
+        for folder in reversed(created):
+            folder.mkdir()
+        fd, name = tempfile.mkstemp(dir=path, prefix=".pressurepose-probe-")
+        os.close(fd)
+        os.unlink(name)
+    except OSError as exc:
+        raise BadInput(f"{what} {path}: cannot create or write in this folder ({exc.strerror or exc})") from None
+    finally:
+        for folder in created:
+            try:
+                folder.rmdir()
+            except OSError:
+                pass
+
+
 def read_npy(path: str | Path, what: str) -> np.ndarray:
     """A numeric array from a ``.npy`` file; BadInput naming ``what`` for a missing, empty, text,
     truncated or pickled file."""
     path = Path(path)
     if not path.is_file():
         raise BadInput(f"{what} file {str(path)!r} does not exist")
+    check_npy_header(path, what)
     try:
         arr = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -180,6 +207,34 @@ def read_npy(path: str | Path, what: str) -> np.ndarray:
     if arr.dtype.kind not in "fiub":
         raise BadInput(f"{what} file {str(path)!r} holds {arr.dtype} values; expected numbers")
     return arr
+
+
+def check_npy_header(path: str | Path, what: str) -> None:
+    """BadInput unless ``path`` starts with a ``.npy`` header whose array fits in the file: an ``.npz``
+    under a ``.npy`` name, or a header claiming more data than the file holds (which numpy would try
+    to allocate first), is refused by name before anything is read."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            if fh.read(2) == b"PK":
+                raise BadInput(f"{what} file {str(path)!r} is an .npz archive under another name; expected one "
+                               f"array saved with numpy.save (or name it .npz)")
+            fh.seek(0)
+            try:
+                version = np.lib.format.read_magic(fh)
+                shape, _, dtype = (np.lib.format.read_array_header_1_0(fh) if version == (1, 0)
+                                   else np.lib.format.read_array_header_2_0(fh))
+            except (ValueError, OSError, EOFError, SyntaxError):
+                return  # np.load names the problem
+            data_bytes = path.stat().st_size - fh.tell()
+    except OSError as exc:
+        raise BadInput(f"{what} file {str(path)!r} cannot be read ({exc})") from None
+    if dtype.hasobject:
+        return  # refused by allow_pickle=False
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > data_bytes:
+        raise BadInput(f"{what} file {str(path)!r} claims an array of shape {tuple(shape)} ({need} bytes) but "
+                       f"holds {data_bytes} bytes of data: truncated or corrupt")
 
 
 def numpy_load_problem(path: str | Path, exc: Exception) -> str:

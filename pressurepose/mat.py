@@ -14,6 +14,10 @@ import numpy as np
 
 from pressurepose.errors import BadInput, require_positive
 
+# taxel pitches a pressure mat can have (1 mm to 0.5 m), and the most taxels a mat grid may hold
+MIN_PITCH_M, MAX_PITCH_M = 0.001, 0.5
+MAX_TAXELS = 1_000_000
+
 
 @dataclass(frozen=True)
 class MatSpec:
@@ -40,9 +44,14 @@ class MatSpec:
         for field in ("pitch_row_m", "pitch_col_m", "max_mmhg"):
             require_positive(f"mat {field}", getattr(self, field))
             object.__setattr__(self, field, float(getattr(self, field)))
-        if not self.pitch_row_m < 0.5 or not self.pitch_col_m < 0.5:
-            raise BadInput(f"mat pitch {self.pitch_row_m} x {self.pitch_col_m} m is not a taxel pitch; "
-                           f"expected metres (e.g. 0.0286)")
+        for field in ("pitch_row_m", "pitch_col_m"):
+            v = getattr(self, field)
+            if not MIN_PITCH_M <= v < MAX_PITCH_M:
+                raise BadInput(f"mat {field} is {v!r} m; expected a taxel pitch in metres from {MIN_PITCH_M} to "
+                               f"{MAX_PITCH_M} (e.g. 0.0286)")
+        if self.rows * self.cols > MAX_TAXELS:
+            raise BadInput(f"mat of {self.rows} x {self.cols} taxels is larger than any pressure mat; expected at "
+                           f"most {MAX_TAXELS} taxels")
 
     @property
     def shape(self) -> tuple[int, int]:

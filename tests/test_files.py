@@ -1,7 +1,9 @@
 """Atomic writers keep the old file on failure; output paths are checked before work."""
 
 import json
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pressurepose.errors import BadInput
@@ -132,9 +134,9 @@ def test_load_npz_names_the_file_for_every_way_it_can_be_wrong(tmp_path):
 
 
 @pytest.mark.parametrize("loader", ["pose.samples:load_samples", "body.capsules:load_regressors",
-                                    "sim.calibration_data:load_measurements", "body.smpl_io:load_body_arrays"])
+                                    "calibrate.measurements:load_measurements", "body.smpl_io:load_body_arrays"])
 def test_every_npz_reader_refuses_a_corrupt_archive_by_name(tmp_path, loader):
-    """Readers that once let zipfile's error through: a damaged .npz is a BadInput naming the file."""
+    """A damaged .npz is a BadInput naming the file, not zipfile's own error."""
     import importlib
 
     module, name = loader.split(":")
@@ -143,3 +145,38 @@ def test_every_npz_reader_refuses_a_corrupt_archive_by_name(tmp_path, loader):
     bad.write_bytes(b"PK\x03\x04garbage")
     with pytest.raises(BadInput, match="damaged.npz' is corrupt"):
         read(bad)
+
+
+def test_read_npy_refuses_an_npz_and_a_header_larger_than_the_file(tmp_path):
+    from pressurepose.files import read_npy
+
+    npz = tmp_path / "x.npy"
+    with open(npz, "wb") as fh:
+        np.savez(fh, pressure=np.zeros((2, 64, 27)))
+    with pytest.raises(BadInput, match="npz archive under another name"):
+        read_npy(npz, "pressure")
+    huge = tmp_path / "huge.npy"
+    with open(huge, "wb") as fh:
+        np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False,
+                                                  "shape": (10**9, 64, 27)})
+        fh.write(b"\0" * 800)
+    with pytest.raises(BadInput, match=r"claims an array of shape \(1000000000, 64, 27\).*truncated"):
+        read_npy(huge, "pressure")
+    good = tmp_path / "good.npy"
+    np.save(good, np.ones((3, 4)))
+    assert read_npy(good, "pressure").shape == (3, 4)
+
+
+def test_an_output_folder_that_cannot_be_made_is_refused_up_front(tmp_path):
+    from pressurepose.files import check_output_path
+
+    blocked = tmp_path / "ro"
+    blocked.mkdir()
+    (blocked / "file").write_text("x")
+    with pytest.raises(BadInput, match="--out"):  # a file where a folder must go: mkdir fails
+        check_output_path(blocked / "file" / "sub", "--out", directory=True)
+    if Path("/proc").is_dir():
+        with pytest.raises(BadInput, match="cannot create or write"):
+            check_output_path("/proc/pressurepose-out", "--out", directory=True)
+    fresh = tmp_path / "a" / "b"
+    assert check_output_path(fresh, "--out", directory=True) == fresh and not (tmp_path / "a").exists()

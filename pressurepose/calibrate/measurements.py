@@ -110,12 +110,18 @@ def load_measurements(path: str | Path) -> CapsuleMeasurements:
     missing = [k for k in need if k not in arrays]
     if missing:
         raise BadInput(f"calibration data {str(p)!r} lacks {', '.join(missing)} (see docs/calibration.md)")
-    if str(arrays["format"]) != FORMAT or int(arrays["version"]) != VERSION:
+    version = arrays["version"]
+    if (str(arrays["format"]) != FORMAT or version.shape != () or version.dtype.kind not in "iu"
+            or int(version) != VERSION):
         raise BadInput(f"calibration data {str(p)!r} is format {str(arrays['format'])!r} version "
-                       f"{arrays['version']}; expected {FORMAT!r} version {VERSION}")
-    shape, pitch = arrays["mat_shape"], arrays["mat_pitch_m"]
-    if shape.shape != (2,) or pitch.shape != (2,):
-        raise BadInput("mat_shape and mat_pitch_m must each hold two numbers (along, across the bed)")
+                       f"{version!r}; expected {FORMAT!r} version {VERSION}")
+    shape, pitch, top = arrays["mat_shape"], arrays["mat_pitch_m"], arrays["max_mmhg"]
+    for name, a, want in (("mat_shape", shape, (2,)), ("mat_pitch_m", pitch, (2,)), ("max_mmhg", top, ())):
+        if a.shape != want or a.dtype.kind not in "iuf":
+            raise BadInput(f"calibration data {str(p)!r}: {name} is {a!r}; expected "
+                           f"{'two numbers (along, across the bed)' if want else 'one number'}")
+    if shape.dtype.kind == "f" and not np.all(np.isfinite(shape) & (shape == np.round(shape))):
+        raise BadInput(f"calibration data {str(p)!r}: mat_shape is {shape!r}; expected two whole numbers of taxels")
     mat = MatSpec(str(arrays["mat_name"]), int(shape[0]), int(shape[1]), float(pitch[0]), float(pitch[1]),
-                  float(arrays["max_mmhg"]))
+                  float(top))
     return CapsuleMeasurements(mat, *(arrays[k] for k in need[6:]))

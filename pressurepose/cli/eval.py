@@ -182,8 +182,9 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
         "thighs, calves, heels: fractions of the body's contact extent, the same image-only rule for both), "
         "peak and mean contact pressure, head-imprint rate and (simulated) load off the mat; medians, quartiles "
         "and distances (median ratio, Kolmogorov-Smirnov, Wasserstein, share differences in percentage points). "
-        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Prints issue 12's goals "
-        "(area within 20 %, head imprint >= 80 %, every region within 5 pp) as met or not. Writes OUT/realism.json "
+        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Prints whether each "
+        "posture meets the realism targets (median contact area within 20 % of the real, a head imprint in "
+        ">= 80 % of simulated images, every region's mean load share within 5 percentage points of the real). Writes OUT/realism.json "
         "and OUT/realism.png (distributions and example images side by side at one colour scale).")
     p.add_argument("--real", required=True, help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--synthetic", required=True,
@@ -257,7 +258,7 @@ def format_region_contacts(report: dict) -> str:
 
 def format_goals(verdicts: list[dict]) -> str:
     """A Markdown table of :func:`pressurepose.eval.realism_report.goal_verdicts`."""
-    lines = ["| posture | issue 12 goal | simulated | target | met |", "|---|---|---|---|---|"]
+    lines = ["| posture | measure | simulated | realism target | met |", "|---|---|---|---|---|"]
     for v in verdicts:
         value = "-" if v["value"] is None else f"{v['value']:.1f}" if "pp" in v["goal"] else f"{v['value']:.2f}"
         met = "yes" if v["met"] else "no"

@@ -226,8 +226,8 @@ def _median(v) -> float | None:
 
 
 def headline(report: dict) -> list[dict]:
-    """One row per posture: the numbers issue 12 sets goals on (contact area, head imprint, load
-    share per region, pressures, load off the mat)."""
+    """One row per posture: the numbers the realism targets judge (contact area, head imprint, load
+    share per region), the pressures and the load off the mat."""
     rows = []
     for g, d in report["postures"].items():
         r, s = d["real"], d["simulated"]
@@ -248,7 +248,7 @@ def headline(report: dict) -> list[dict]:
     return rows
 
 
-# Issue 12's realism goals: the simulated contact area within 20 % of the real (median ratio), a head
+# The realism targets: the simulated contact area within 20 % of the real (median ratio), a head
 # imprint in at least 80 % of simulated images, and every region's mean load share within 5 percentage points.
 AREA_RATIO_TOLERANCE = 0.2
 AREA_RATIO_GOAL = (1.0 - AREA_RATIO_TOLERANCE, 1.0 + AREA_RATIO_TOLERANCE)
@@ -257,7 +257,7 @@ SHARE_GAP_GOAL_PP = 5.0
 
 
 def goal_verdicts(rows: list[dict]) -> list[dict]:
-    """Issue 12's goals checked on :func:`headline` rows: per posture and goal, ``{'posture', 'goal',
+    """The realism targets checked on :func:`headline` rows: per posture and target, ``{'posture', 'goal',
     'value', 'target', 'met'}``, and for the share goal ``'interval'`` (the worst gap's 90 % interval
     from resampling the real people, or None) and ``'interval_holds_goal'`` (whether that interval
     reaches the goal: with few real people a gap just over 5 pp may not differ from it)."""

@@ -35,6 +35,9 @@ from pressurepose.errors import (
 from pressurepose.mat import DEFAULT_MAT, MatSpec, get_mat
 
 INCH = 0.0254
+# a mattress side longer than this is no bed; press cells finer than this cost memory and add nothing
+MAX_MATTRESS_M = 5.0
+MIN_PRESS_CELL_M = 0.001
 # Soft tissue's Young's modulus (Pa) for the press; see docs/physics.md for how it was chosen.
 TISSUE_MODULUS_PA = 3.0e3
 # The press's bones by body part: each part's bone is a core of this fraction of the mean body's
@@ -126,6 +129,13 @@ class BedSpec:
             require_non_negative(f"bed {field}", getattr(self, field))
         for field in ("sensor_c0", "sensor_c1", "sensor_c2"):
             require_finite(f"bed {field}", getattr(self, field))
+        for field in ("mattress_width_m", "mattress_length_m", "mattress_thickness_m"):
+            if getattr(self, field) > MAX_MATTRESS_M:
+                raise BadInput(f"bed {field} is {getattr(self, field)!r} m; expected a bed's size, at most "
+                               f"{MAX_MATTRESS_M} m")
+        if not MIN_PRESS_CELL_M <= self.press_cell_m <= self.mat.pitch_row_m + self.mat.pitch_col_m:
+            raise BadInput(f"bed press_cell_m is {self.press_cell_m!r} m; expected from {MIN_PRESS_CELL_M} m up to "
+                           f"about the {self.mat.name} mat's taxel pitch ({self.mat.pitch_row_m} m)")
         object.__setattr__(self, "tissue_bone_fraction", bone_fractions(self.tissue_bone_fraction))
         for field in [f.name for f in dataclasses.fields(self)
                       if f.name not in ("mat", "mat_offset_m", "tissue_bone_fraction")]:

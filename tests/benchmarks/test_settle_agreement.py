@@ -1,4 +1,4 @@
-"""benchmarks/bench_settle.py --agreement on a handful of bodies: the reference against itself
+"""benchmarks/bench_settle.py --agreement on a handful of bodies: the fine step against itself
 agrees exactly, a start offset is undone before joints are compared, and the table has a row per
 candidate."""
 
@@ -12,9 +12,9 @@ from pressurepose.body.model import asset_path
 def test_agreement_table_on_two_bodies(monkeypatch):
     monkeypatch.setattr(bench, "AGREEMENT_PARTITIONS", (("supine_straight_limbs", False),))
     monkeypatch.setattr(bench, "AGREEMENT_CANDIDATES", {
-        "the reference again": (bench.REFERENCE, bench.NO_OFFSET),
-        "moved 10 cm along the bed": (bench.REFERENCE, (0.0, 0.1, 0.0)),
-        "pushed off the bed's side": (bench.REFERENCE, (2.0, 0.0, 0.0)),
+        "the fine step again": (bench.FINE_STEP, bench.NO_OFFSET),
+        "moved 10 cm along the bed": (bench.FINE_STEP, (0.0, 0.1, 0.0)),
+        "pushed off the bed's side": (bench.FINE_STEP, (2.0, 0.0, 0.0)),
     })
     lines = bench.agreement(1, seed=7)
     assert len(lines) == 2 + 3

@@ -102,6 +102,18 @@ def test_measurement_files_round_trip_and_refuse_damage(tmp_path):
         load_measurements(tmp_path / "partial.npz")
 
 
+@pytest.mark.parametrize("field, value", [("version", np.array("abc")), ("mat_shape", np.array(["a", "b"])),
+                                          ("max_mmhg", np.array("x")), ("mat_shape", np.array([64.5, 27.0]))])
+def test_measurement_file_header_fields_are_checked_by_name(tmp_path, field, value):
+    path = tmp_path / "cal.npz"
+    save_measurements(path, synthetic_measurements(FAST_BED, {"stiffness": 5e4}))
+    arrays = dict(np.load(path))
+    arrays[field] = value
+    np.savez(path, **arrays)
+    with pytest.raises(BadInput, match=field):
+        load_measurements(path)
+
+
 @pytest.mark.parametrize("change, match", [
     (dict(radius_m=np.array([0.05, -0.1, 0.05, 0.05])), "radius_m"),
     (dict(length_m=np.array([0.05, 0.4, 0.2, 0.4])), "2 radius_m"),

@@ -77,6 +77,8 @@ def test_taxel_centres_and_xy_to_taxel_agree():
     (dict(mat_offset_m=(0.3, 0.0)), "off the"),
     (dict(mat_offset_m=(0.1,)), "two finite"),
     (dict(press_cell_m=0.0), "press_cell_m"),
+    (dict(press_cell_m=1e-7), "press_cell_m"),
+    (dict(mattress_length_m=1e6), "mattress_length_m"),
     (dict(sensor_c1=float("inf")), "sensor_c1"),
 ])
 def test_nonsense_beds_are_refused(kwargs, match):
@@ -89,6 +91,8 @@ def test_nonsense_beds_are_refused(kwargs, match):
     ((64, 27, 0.0), "pitch_row_m"),
     ((64, 27, -0.01), "pitch_row_m"),
     ((64, 27, 28.6), "metres"),
+    ((64, 27, 1e-300), "pitch_row_m"),
+    ((10**6, 27, 0.0286), "taxels"),
     ((64.5, 27, 0.0286), "rows"),
 ])
 def test_nonsense_mats_are_refused(args, match):

@@ -1,17 +1,25 @@
-"""Running ``pressurepose`` as a user does, for the benchmarks: a fresh process per command, timed by
-the CPU time of its whole process tree (the CLI, worker processes, the forkserver; start-up
-included) and by wall time.
+"""What the benchmarks share: running ``pressurepose`` as a user does, the real-data argument, and
+the machine/date stamp of a section.
 
-The forkserver that starts the worker processes outlives the CLI by a moment and is nobody's child
-to wait for, so ``RUSAGE_CHILDREN`` alone would miss it and its workers. This process therefore
-makes itself a child subreaper (Linux ``prctl(PR_SET_CHILD_SUBREAPER)``): orphaned descendants are
-handed to it, and it waits for every one of them, so their CPU is counted."""
+Running the CLI: a fresh process per command, timed by the CPU time of its whole process tree (the
+CLI, worker processes, the forkserver; start-up included) and by wall time. The forkserver that
+starts the worker processes outlives the CLI by a moment and is nobody's child to wait for, so
+``RUSAGE_CHILDREN`` alone would miss it and its workers. This process therefore makes itself a
+child subreaper (Linux ``prctl(PR_SET_CHILD_SUBREAPER)``): orphaned descendants are handed to it,
+and it waits for every one of them, so their CPU is counted.
+
+Real data: a benchmark that needs real pressure images takes the folder by ``--real PATH``
+(default: the environment variable ``PRESSUREPOSE_PMD``); without it, it prints why it skips and
+returns 0, so ``make bench`` runs on a machine without the dataset."""
 
 from __future__ import annotations
 
+import argparse
 import ctypes
+import datetime
 import json
 import os
+import platform
 import resource
 import subprocess
 import sys
@@ -19,6 +27,30 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+REAL_ENV = "PRESSUREPOSE_PMD"
+
+
+def add_real_argument(parser: argparse.ArgumentParser) -> None:
+    """``--real PATH``: the real-data folder (PhysioNet PMD experiment I, or any folder
+    ``pressurepose evaluate-real`` reads); default ``$PRESSUREPOSE_PMD``."""
+    parser.add_argument("--real", type=Path, default=os.environ.get(REAL_ENV) or None, metavar="PATH",
+                        help=f"real pressure images (PMD experiment I or a labelled folder) [${REAL_ENV}]")
+
+
+def real_folder(path, benchmark: str) -> Path | None:
+    """``path`` as a Path when it is a folder; otherwise None, after printing why ``benchmark`` skips."""
+    if path is not None and Path(path).is_dir():
+        return Path(path)
+    why = (f"{path} is not a folder" if path is not None
+           else f"no real data given (--real PATH, or set {REAL_ENV})")
+    print(f"{benchmark}: skipped, {why}; it needs real pressure images such as PhysioNet PMD experiment I. "
+          "Nothing measured, docs/RESULTS.md left as it is.")
+    return None
+
+
+def stamp() -> str:
+    """'YYYY-MM-DD, <platform>, N CPUs': when and where a section was measured."""
+    return f"{datetime.date.today().isoformat()}, {platform.platform()}, {os.cpu_count()} CPUs"
 
 
 PR_SET_CHILD_SUBREAPER = 36
