@@ -40,7 +40,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU (~1.6x faster "
                                                          "where the CPU has bf16 instructions)")
     p.add_argument("--cnn", choices=tuple(CNN_VARIANTS), default=d.cnn,
-                   help="CNN widths: paper (default) or half (half as wide, ~3x faster to train on a CPU; the "
+                   help="CNN widths: paper (default) or half (half as wide, about 3.5x faster to train on a CPU; the "
                         "shipped model's)")
     p.add_argument("--contact-floor", type=float, default=5.0, metavar="MMHG",
                    help="sensor floor: readings at or below it are dropped from the input and the contact channel, "

@@ -5,7 +5,7 @@ conv 3x3 -> 192; conv 3x3 -> 384; conv 3x3 -> 384 (stride 1, no padding; each ta
 linear (flattened features) -> 88 outputs. For a 128 x 54 input the flattened size is 67,200.
 
 ``channels`` changes the four layers' widths (the paper's (192, 192, 384, 384) by default). The
-named widths are :data:`CNN_VARIANTS`: the paper's and ``half`` (half as wide, about 3x faster to
+named widths are :data:`CNN_VARIANTS`: the paper's and ``half`` (half as wide, about 3.5x faster to
 train on a CPU), which the shipped model uses.
 
 Gender: as in the paper and its authors' code, the binary gender flag selects the body model the

@@ -71,7 +71,7 @@ class TrainConfig:
     save_every: epochs between resumable states (the last epoch of each stage is always saved).
     device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
     cnn: the CNN's widths, a name in :data:`pressurepose.net.cnn.CNN_VARIANTS` ("paper", the
-    default, or "half", half as wide: about 3x faster to train on a CPU; the shipped model's). cpu_amp: run the
+    default, or "half", half as wide: about 3.5x faster to train on a CPU; the shipped model's). cpu_amp: run the
     CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
     layer, PMR and losses stay float32), like ``amp`` on CUDA. contact_floor_mmhg: the input's
     sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
