@@ -40,9 +40,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
-                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
-                        "threshold and (--targets real) bone_pelvis, bone_spine, ... bone_hand "
-                        "[stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue and "
+                        "threshold [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
                         "stiffness,tissue,threshold for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
@@ -78,10 +77,6 @@ def run_calibrate(args) -> int:
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
     if args.bed or args.match_extent:
         raise BadInput("--bed and --match-extent are options of --targets real")
-    bones = [n for n in fit or () if n in cal.BONE_PARAMETERS]
-    if bones:
-        raise BadInput(f"--fit {','.join(bones)}: bone fractions shape the tissue of people, so they are fitted "
-                       f"with --targets real only")
     t0 = time.perf_counter()
 
     def progress(gen, evals, best):

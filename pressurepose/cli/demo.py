@@ -37,7 +37,7 @@ def run_demo(args) -> int:
     from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
     from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import get_bed
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     out = check_output_path(args.out, "--out", directory=True)
     if str(args.gender).lower() not in ("f", "m", "female", "male"):  # the network's body models
@@ -57,9 +57,9 @@ def run_demo(args) -> int:
     t = _stage("load body model and bed", t)
     for _ in range(20):
         sim = simulate_one(body, bed, partition, gender, rng)
-        if not isinstance(sim, str):
+        if not isinstance(sim, Rejected):
             break
-        print(f"  (sample rejected: {sim}; drawing another)")
+        print(f"  (sample rejected: {sim.cause}{f' ({sim.detail})' if sim.detail else ''}; drawing another)")
     else:
         raise BadInput(f"no {partition} body settled in 20 attempts; try another --seed")
     t = _stage(f"sample + settle ({sim.settle_steps} steps) + press", t)

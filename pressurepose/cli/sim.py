@@ -17,10 +17,8 @@ def add_settle_argument(p) -> None:
 
     p.add_argument("--settle", choices=SETTLES, default="relaxed",
                    help="how bodies come to rest: neck and spine relax so the head and the heavy pelvis sink "
-                        "onto the bed as people lie (relaxed, default); the paper's joint springs throughout, "
-                        "which hold the head and trunk in their standing shape (paper); or relaxed with limbs "
-                        "damped 5x less than the paper's, so resting hands lie on the bed (relaxed-limbs); "
-                        "docs/physics.md")
+                        "onto the bed as people lie (relaxed, default); or the paper's joint springs throughout, "
+                        "which hold the head and trunk in their standing shape (paper); docs/physics.md")
 
 
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
@@ -110,8 +108,8 @@ def run_simulate(args) -> int:
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import bed_for
-    from pressurepose.sim.settle import settle_preset
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.settle_config import settle_preset
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     out = check_output_path(args.out, "--out", suffixes=(".npz",))
     if args.plot:
@@ -137,10 +135,10 @@ def run_simulate(args) -> int:
             sim = simulate_one(body, bed, partition, gender,
                                np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler,
                                settle_config=settle_config)
-            if not isinstance(sim, str):
+            if not isinstance(sim, Rejected):
                 done.append(_record(sim))
                 break
-            rejected[sim] += 1
+            rejected[sim.cause] += 1
         else:
             raise BadInput(f"body {i}: no attempt settled in 100 tries ({dict(rejected)}); the {len(done)} "
                            f"finished bodies are kept in {partial}. Try another --seed or --partition")

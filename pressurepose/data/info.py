@@ -117,17 +117,16 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
 def settle_line(record) -> str:
     """The joint springs and time step a manifest's settle provenance (``SettleConfig`` as a dict)
     rested bodies with, in words ("" when the manifest has none, as for non-physics producers)."""
-    if not isinstance(record, dict):
+    keys = ("relaxed_neck", "spine_stiffness", "timestep_s", "coarse_factor", "coarse_after_steps")
+    if not isinstance(record, dict) or not all(k in record for k in keys):
         return ""
-    neck = "relaxed neck" if record.get("relaxed_neck", False) else "the paper's stiff neck"
-    k = record.get("spine_stiffness")  # absent: made before the spine could relax
+    neck = "relaxed neck" if record["relaxed_neck"] else "the paper's stiff neck"
+    k = record["spine_stiffness"]
     spine = "the paper's stiff spine" if k is None else f"relaxed spine ({k:g} N m/rad)"
-    dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: made with one step length
+    dt, factor = record["timestep_s"], record["coarse_factor"]
     step = (f"step {dt:g} s throughout" if factor == 1.0 else
-            f"step {dt:g} s, {factor * dt:g} s from {record.get('coarse_after_steps')} steps after touching")
-    limbs = record.get("limb_damping_s")  # absent: the paper's limb damping
-    limbs = "" if limbs is None else f", relaxed limbs (damping {limbs:g} s x stiffness)"
-    return f"{neck}, {spine}{limbs}, {step}"
+            f"step {dt:g} s, {factor * dt:g} s from {record['coarse_after_steps']} steps after touching")
+    return f"{neck}, {spine}, {step}"
 
 
 def format_summary(s: Summary) -> str:
