@@ -236,11 +236,19 @@ def run_infer(args) -> int:
         left_out = "" if list(est.frame) == list(range(len(est))) else " (the others blank or start-up frames)"
         print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file}{left_out}, on the {args.mat} mat, "
               f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
-    for i in range(min(len(est), SHOWN_ESTIMATES)):
+    import numpy as np
+
+    from pressurepose.eval.posture import body_stature_mass, posture_of
+    from pressurepose.pose.posture import roll_angle
+
+    shown = min(len(est), SHOWN_ESTIMATES)
+    height, mass = body_stature_mass(net, est.betas[:shown], est.gender[:shown])
+    turn = np.degrees(np.atleast_1d(roll_angle(est.pose[:shown])))
+    for i, posture in enumerate(posture_of(est.pose[:shown])):
         root = est.joints[i, 0]
         name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-        print(f"  {name}: pelvis at ({root[0]:.3f}, {root[1]:.3f}, {root[2]:.3f}) m, betas[:3] "
-              f"{', '.join(f'{b:+.2f}' for b in est.betas[i, :3])}")
+        print(f"  {name}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, {mass[i]:.0f} kg, "
+              f"pelvis at x {root[0]:.2f}, y {root[1]:.2f} m")
     if len(est) > SHOWN_ESTIMATES:
         print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")
     return 0
