@@ -13,7 +13,7 @@ A real recording on any mat (``mat=``) is read by
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Sequence
@@ -31,7 +31,7 @@ from pressurepose.files import (
 )
 from pressurepose.mat import MatSpec
 from pressurepose.net.model import GENDER_CODES, PressureNet
-from pressurepose.net.pmr import surface_maps
+from pressurepose.net.pmr import PMRConfig, surface_maps
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
@@ -42,10 +42,11 @@ class Estimate:
     """PressureNet's estimate for a batch of B images (numpy, bed frame, metres and radians).
 
     betas (B, 10); pose (B, 72) SMPL axis-angle (root first); transl (B, 3); joints (B, 24, 3);
-    vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
+    vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); :attr:`q` (B, R, C) the
     reconstructed pressure map of the body (its sink below the mattress top, mm, read from its
-    lower surface as the simulator reads a body: :func:`pressurepose.net.pmr.surface_maps`);
-    contact (B, R, C) its contact map (1 where the body is below the mattress top);
+    lower surface as the simulator reads a body: :func:`pressurepose.net.pmr.surface_maps`, with
+    ``pmr``'s settings) and :attr:`contact` (B, R, C) its contact map (1 where the body is below
+    the mattress top), both computed when first read (about 25 ms a body on one CPU core);
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
@@ -59,16 +60,34 @@ class Estimate:
     vertices: np.ndarray
     faces: np.ndarray
     pressure: np.ndarray
-    q: np.ndarray
-    contact: np.ndarray
     gender: list[str]
     mod1_joints: np.ndarray
     grid: MatSpec
     mirror: bool = False
     frame: np.ndarray | None = None
+    pmr: PMRConfig = PMRConfig()
+    _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
+
+    def _surface_maps(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._maps is None:
+            verts, faces = torch.from_numpy(np.asarray(self.vertices, np.float32)), torch.from_numpy(self.faces)
+            maps = [surface_maps(verts[s:s + 32], faces, self.grid, self.pmr) for s in range(0, len(self), 32)]
+            self._maps = (torch.cat([m.q for m in maps]).float().numpy(),
+                          torch.cat([m.contact for m in maps]).float().numpy())
+        return self._maps
+
+    @property
+    def q(self) -> np.ndarray:
+        """(B, R, C) the body's sink below the mattress top per taxel, mm (0 where it does not sink)."""
+        return self._surface_maps()[0]
+
+    @property
+    def contact(self) -> np.ndarray:
+        """(B, R, C) 1 where the body's lower surface is below the mattress top, else 0."""
+        return self._surface_maps()[1]
 
     def to_records(self) -> list[dict]:
         """One JSON-ready dict per image."""
@@ -338,14 +357,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
-    # the final bodies' maps from their lower surface, on the model's device, 32 bodies at a time
-    # (~30 000 triangle-cell pairs each)
-    maps = [surface_maps(o2.vertices[s:s + 32], net.body.faces, net.config.grid, net.config.pmr)
-            for _, o2 in parts for s in range(0, o2.vertices.shape[0], 32)]
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
-                    pressure=arr, q=torch.cat([m.q for m in maps]).float().cpu().numpy(),
-                    contact=torch.cat([m.contact for m in maps]).float().cpu().numpy(),
-                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
-                    frame=frame)
+                    pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
+                    mirror=bool(mirror), frame=frame, pmr=net.config.pmr)
