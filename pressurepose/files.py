@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import secrets
 import tempfile
@@ -110,9 +111,29 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     atomic_write(path, lambda p: Path(p).write_text(text))
 
 
-def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1, allow_nan: bool = True) -> None:
-    """``obj`` as JSON; ``allow_nan=False``: strict JSON, ValueError on a NaN or infinite float."""
-    write_text_atomic(path, json.dumps(obj, indent=indent, allow_nan=allow_nan) + "\n")
+def json_ready(value: Any) -> Any:
+    """``value`` with numpy numbers and arrays as Python ones, tuples as lists and NaN or infinite
+    floats as None: what strict JSON (no ``NaN`` / ``Infinity`` literals, which most readers refuse)
+    can hold."""
+    if isinstance(value, dict):
+        return {k if isinstance(k, str) else str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(obj: Any, indent: int | None = 1, **dumps_kwargs) -> str:
+    """``obj`` as strict JSON text (:func:`json_ready`: a NaN or infinite float becomes null)."""
+    return json.dumps(json_ready(obj), indent=indent, allow_nan=False, **dumps_kwargs)
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
+    """``obj`` as strict JSON (:func:`json_text`), written atomically."""
+    write_text_atomic(path, json_text(obj, indent=indent) + "\n")
 
 
 def save_npz_atomic(path: str | Path, **arrays) -> None:

@@ -139,8 +139,7 @@ def run_evaluate_real(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     result.write_metrics(out / "metrics.json", data=str(args.dir), model=str(args.model or "shipped"),
                          frames=args.frames, gender=args.gender, mirror=bool(args.mirror))
-    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()},
-                      allow_nan=False)
+    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()})
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
     corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
     headline = (f"{result.n_images} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "

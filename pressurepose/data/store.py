@@ -39,7 +39,7 @@ from pressurepose.data.schema import (
     Sample,
 )
 from pressurepose.errors import BadInput
-from pressurepose.files import commit, stage, write_bytes_atomic
+from pressurepose.files import commit, json_text, stage, write_bytes_atomic
 
 MANIFEST = "manifest.json"
 FORMAT = "pressurepose-dataset"
@@ -227,8 +227,7 @@ class Manifest:
         }
 
     def save(self, directory: Path) -> None:
-        write_bytes_atomic(Path(directory) / MANIFEST,
-                           (json.dumps(self.to_dict(), indent=1, sort_keys=False) + "\n").encode())
+        write_bytes_atomic(Path(directory) / MANIFEST, (json_text(self.to_dict()) + "\n").encode())
 
     @classmethod
     def new(cls, config: GenerationConfig, provenance: dict | None = None) -> "Manifest":

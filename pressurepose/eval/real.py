@@ -15,7 +15,6 @@ them.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -31,6 +30,7 @@ from pressurepose.eval.posture import (
     posture_correct,
     posture_of,
 )
+from pressurepose.files import json_ready
 from pressurepose.mat import MatSpec
 from pressurepose.pose.posture import roll_angle
 
@@ -95,20 +95,6 @@ def model_inputs(real: RealImages, net, config: RealEvalConfig = RealEvalConfig(
     return r, x, np.array(idx), genders, {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())}
 
 
-def json_ready(value):
-    """``value`` with numpy numbers and arrays as Python ones and NaN or infinite floats as None, for
-    strict JSON (no NaN literals)."""
-    if isinstance(value, dict):
-        return {str(k): json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 @dataclass(frozen=True, eq=False)
 class RealEvaluation:
     """What :func:`evaluate_real` found: K estimates (an image read with one body model each).
@@ -145,7 +131,7 @@ class RealEvaluation:
         """Write :meth:`metrics` to ``path`` as strict JSON (null where a value is not a number)."""
         from pressurepose.files import write_json_atomic
 
-        write_json_atomic(path, self.metrics(**about), allow_nan=False)
+        write_json_atomic(path, self.metrics(**about))
         return Path(path)
 
     def per_estimate(self) -> list[dict]:

@@ -20,7 +20,7 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput
-from pressurepose.files import atomic_write, write_text_atomic
+from pressurepose.files import atomic_write, json_text, write_text_atomic
 from pressurepose.net.model import GenderedBody, NetConfig, PressureNet
 
 FORMAT = "pressurepose.pressurenet/1"
@@ -75,7 +75,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
         weights = {k: v.to(dtype) if v.is_floating_point() else v for k, v in weights.items()}
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix == ".pt":
-        atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
+        atomic_write(path, lambda p: torch.save({"meta": json_text(record, indent=None), "state_dict": weights}, p))
         return path
     groups = {"": weights}
     if split_modules:
@@ -88,7 +88,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
     if split_modules:
         record["weight_files"] = sorted(files)
     meta_path = path.with_suffix(".json")
-    write_text_atomic(meta_path, json.dumps(record, indent=1))
+    write_text_atomic(meta_path, json_text(record))
     return meta_path if split_modules else path.with_suffix(".safetensors")
 
 
