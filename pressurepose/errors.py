@@ -47,3 +47,28 @@ def require_non_negative(name: str, v) -> None:
     require_finite(name, v)
     if v < 0:
         raise BadInput(f"{name} is {v!r}; expected zero or a positive number")
+
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # about 3.4e38: larger values become infinite in float32
+
+
+def finite_float32(values, what: str) -> np.ndarray:
+    """``values`` (numbers of any shape) as float32; BadInput naming ``what`` for values that are not
+    numbers, NaN or infinite, or finite but beyond float32's range (which the cast would make
+    infinite)."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "fiub":
+        raise BadInput(f"{what} holds {arr.dtype} values; expected numbers")
+    if arr.dtype.kind == "f" and arr.size:
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            at = tuple(int(k) for k in np.unravel_index(i, arr.shape))
+            where = f" at index {at[0] if len(at) == 1 else at}" if at else ""
+            raise BadInput(f"{what} contains NaN or infinite values ({int(bad.sum())} of {arr.size}; the first: "
+                           f"{float(arr.flat[i])}{where})")
+        peak = float(np.abs(arr).max())
+        if peak > FLOAT32_MAX:
+            raise BadInput(f"{what} holds values up to {peak:.3g}, out of range: too large for float32 (at most "
+                           f"{FLOAT32_MAX:.3g})")
+    return arr.astype(np.float32)

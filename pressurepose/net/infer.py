@@ -23,7 +23,7 @@ import torch
 
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, finite_float32
 from pressurepose.files import (
     atomic_write,
     save_npz_atomic,
@@ -137,9 +137,7 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         raise
     except (ValueError, OSError) as exc:
         raise BadInput(f"pressure file {str(path)!r} could not be read ({exc})") from None
-    if arr.dtype.kind not in "fiub":
-        raise BadInput(f"pressure file {str(path)!r} holds {arr.dtype} values; expected numbers")
-    return np.asarray(arr, dtype=np.float32)
+    return finite_float32(arr, f"pressure file {str(path)!r}")
 
 
 def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
@@ -179,7 +177,6 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
     arr = np.asarray(pressure.detach().cpu() if isinstance(pressure, torch.Tensor) else pressure)
     if arr.dtype.kind not in "fiub":
         raise BadInput(f"{what} has dtype {arr.dtype}; expected numbers")
-    arr = arr.astype(np.float32)
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != tuple(shape) or arr.shape[0] == 0:
@@ -187,8 +184,7 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
                 "with pressurepose.data.resample.resample_pressure" if arr.ndim in (2, 3) and arr.shape[0] else "")
         raise BadInput(f"{what} has shape {np.shape(pressure)}; this model's mat is {shape[0]} x {shape[1]} "
                        f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]})){hint}")
-    if not np.all(np.isfinite(arr)):
-        raise BadInput(f"{what} contains NaN or infinite values")
+    arr = finite_float32(arr, what)
     if np.any(arr < 0):
         raise BadInput(f"{what} has negative values (min {arr.min():.3g}); pressures must be >= 0")
     return arr
