@@ -276,6 +276,30 @@ def numpy_load_problem(path: str | Path, exc: Exception) -> str:
     return str(exc)
 
 
+def stored_dataset(f, name: str, what: str):
+    """The dataset ``name`` of an open HDF5 file ``f``, stored in that file. BadInput naming ``what``
+    when it is missing or a group, or is not data of this file: a soft link (dangling or not), an
+    external link, a virtual dataset or external storage (the last three read other files)."""
+    import h5py
+
+    link = f.get(name, getlink=True)
+    if link is None:
+        raise BadInput(f"{what} has no dataset {name!r} (has: {', '.join(f.keys())})")
+    if isinstance(link, h5py.ExternalLink):
+        raise BadInput(f"{what}: {name!r} is an external link to {link.path!r} in {link.filename!r}; only data "
+                       f"stored in the file itself is read")
+    if isinstance(link, h5py.SoftLink):
+        target = "a missing object" if f.get(name) is None else "another object"
+        raise BadInput(f"{what}: {name!r} is a soft link to {link.path!r} ({target}); expected the dataset itself")
+    obj = f[name]
+    if not isinstance(obj, h5py.Dataset):
+        raise BadInput(f"{what}: {name!r} is a group; expected a dataset")
+    if obj.is_virtual or obj.external:
+        kind = "a virtual dataset mapped from" if obj.is_virtual else "a dataset whose data lies in"
+        raise BadInput(f"{what}: {name!r} is {kind} other files; only data stored in the file itself is read")
+    return obj
+
+
 def load_npz(path: str | Path, what: str, fields=None) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` (all, or those named in ``fields``, which must all be there), read
     without pickle. Anything else (missing, empty, truncated, corrupt, not an .npz, pickled, lacking

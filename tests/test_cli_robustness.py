@@ -9,6 +9,7 @@ import json
 import os
 from types import SimpleNamespace
 
+import h5py
 import numpy as np
 import pytest
 import torch
@@ -43,6 +44,8 @@ def world(tmp_path_factory):
     (root / "text.npy").write_text("1 2 3\n")
     (root / "empty.npy").write_bytes(b"")
     (root / "afile").write_text("not a folder\n")
+    with h5py.File(root / "dangling.h5", "w") as f:
+        f["pressure"] = h5py.SoftLink("/nowhere")
     write_toy_dataset(root / "nested", n=4)
     write_toy_dataset(root / "nested" / "inner", n=4, seed=2)
     return SimpleNamespace(root=root, data=root / "data", recipe=root / "recipe", model=model)
@@ -102,6 +105,8 @@ REFUSED = [
     ("view-body-unknown-suffix", lambda w: ["view-body", "--out", w.root / "b.bmpx"], "expected a file ending"),
     ("infer-empty-npy", lambda w: ["infer", w.root / "empty.npy", "--gender", "f", "--model", w.model,
                                    "--out", w.root / "e4"], "empty"),
+    ("infer-hdf5-dangling-link", lambda w: ["infer", w.root / "dangling.h5", "--gender", "f", "--model", w.model,
+                                            "--out", w.root / "e6"], "'pressure' is a soft link to '/nowhere'"),
     ("infer-text-npy", lambda w: ["infer", w.root / "text.npy", "--gender", "f", "--model", w.model,
                                   "--out", w.root / "e5"], "no .npy / .npz header"),
     ("sample-negative-seed", lambda w: ["sample", "--partition", "general", "--gender", "f", "--count", 1,

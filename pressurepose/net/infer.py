@@ -127,10 +127,10 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         elif suffix in (".h5", ".hdf5"):
             import h5py
 
+            from pressurepose.files import stored_dataset
+
             with h5py.File(path, "r") as f:
-                if key not in f or not isinstance(f[key], h5py.Dataset):
-                    raise BadInput(f"HDF5 file {str(path)!r} has no dataset {key!r} (has: {', '.join(f.keys())})")
-                arr = f[key][()]
+                arr = stored_dataset(f, key, f"HDF5 file {str(path)!r}")[()]
         else:
             raise BadInput(f"pressure file {str(path)!r}: expected .npy, .csv, .npz, .h5 or .hdf5")
     except BadInput:
@@ -164,10 +164,12 @@ def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
         raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 and .npz files can carry genders)")
     import h5py
 
+    from pressurepose.files import stored_dataset
+
     with h5py.File(path, "r") as f:
         if key not in f:
             raise BadInput(f"HDF5 file {str(path)!r} has no {key!r} dataset; pass --gender")
-        values = f[key][()]
+        values = stored_dataset(f, key, f"HDF5 file {str(path)!r}")[()]
     return [v.decode() if isinstance(v, bytes) else str(v) for v in np.atleast_1d(values)]
 
 

@@ -62,6 +62,43 @@ def test_bad_inputs_are_refused(model_path, tmp_path):
         load_pressure(tmp_path / "p.csv")
 
 
+def _virtual(f, other, shape):
+    layout = h5py.VirtualLayout(shape=shape, dtype="f4")
+    layout[:] = h5py.VirtualSource(str(other), "pressure", shape=shape)
+    f.create_virtual_dataset("pressure", layout)
+
+
+# (case, how the file's 'pressure' is made given (file, the other file, image), what the refusal says)
+BAD_HDF5 = [
+    ("dangling-soft-link", lambda f, o, img: f.__setitem__("pressure", h5py.SoftLink("/nowhere")),
+     r"'pressure' is a soft link to '/nowhere' \(a missing object\)"),
+    ("soft-link", lambda f, o, img: (f.__setitem__("real", img), f.__setitem__("pressure", h5py.SoftLink("/real"))),
+     "'pressure' is a soft link to '/real'"),
+    ("external-link", lambda f, o, img: f.__setitem__("pressure", h5py.ExternalLink(str(o), "/pressure")),
+     "'pressure' is an external link to '/pressure' in .*other.h5"),
+    ("virtual-dataset", lambda f, o, img: _virtual(f, o, img.shape), "virtual dataset mapped from other files"),
+    ("external-storage", lambda f, o, img: f.create_dataset("pressure", shape=img.shape, dtype="f4",
+                                                            external=[(str(o.with_suffix(".bin")), 0, img.nbytes)]),
+     "a dataset whose data lies in other files"),
+    ("group", lambda f, o, img: f.create_group("pressure"), "'pressure' is a group"),
+]
+
+
+@pytest.mark.parametrize("case,build,message", BAD_HDF5, ids=[c[0] for c in BAD_HDF5])
+def test_hdf5_pressure_must_be_stored_in_the_file(tmp_path, case, build, message):
+    """Only data stored in the given file is read: links and virtual or external datasets, which
+    reach into other files (or nowhere), are refused by name."""
+    img = np.ones((2, 16, 16), np.float32)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["pressure"] = img
+    other.with_suffix(".bin").write_bytes(img.tobytes())
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        build(f, other, img)
+    with pytest.raises(BadInput, match=message):
+        load_pressure(tmp_path / "x.h5")
+
+
 def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     data = toy_dataset(2, grid=GRID)
     img = data["pressure"].numpy()
