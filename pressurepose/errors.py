@@ -35,6 +35,22 @@ def require_finite(name: str, v) -> None:
         raise BadInput(f"{name} is {v!r}; expected a finite number")
 
 
+def require_numbers(name: str, v, n: int, positive: bool = False) -> tuple[float, ...]:
+    """``v`` as a tuple of ``n`` floats; BadInput naming ``name`` (and the index) unless it is a
+    sequence of ``n`` finite numbers (positive ones with ``positive``)."""
+    if isinstance(v, (str, bytes, dict)) or not hasattr(v, "__len__") or len(v) != n:
+        raise BadInput(f"{name} is {v!r:.80}; expected {n} numbers")
+    for i, x in enumerate(v):
+        (require_positive if positive else require_finite)(f"{name}[{i}]", x)
+    return tuple(float(x) for x in v)
+
+
+def require_whole(name: str, v, lo: int, hi: int) -> None:
+    """BadInput unless ``v`` is a whole number (an int, not a bool) from ``lo`` to ``hi``."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+        raise BadInput(f"{name} is {v!r}; expected a whole number from {lo} to {hi}")
+
+
 def require_positive(name: str, v) -> None:
     """BadInput unless ``v`` is a finite number > 0."""
     require_finite(name, v)
