@@ -16,6 +16,7 @@ import torch
 
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
+from tests.data.realfolders import body_image, write_labelled
 from tests.net.synth import BODITRAK, toy_body, write_toy_dataset
 
 torch.set_num_threads(1)
@@ -47,6 +48,8 @@ def world(tmp_path_factory):
     with h5py.File(root / "dangling.h5", "w") as f:
         f["pressure"] = h5py.SoftLink("/nowhere")
     write_toy_dataset(root / "nested", n=4)
+    write_labelled(root / "real_raw", np.stack([body_image(64, 27, seed=i) for i in range(2)]), ["supine", "left"],
+                   {"preset": "boditrak_bt3510", "units": "raw"})
     write_toy_dataset(root / "nested" / "inner", n=4, seed=2)
     return SimpleNamespace(root=root, data=root / "data", recipe=root / "recipe", model=model)
 
@@ -163,6 +166,8 @@ REFUSED = [
     # refused before any work is done, and without a traceback
     ("evaluate-real-bad-device", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                             "--device", "foo"], "not a torch device"),
+    ("evaluate-real-gain-tiny", lambda w: ["evaluate-real", w.root / "real_raw", "--model", w.model, "--gain", 1e-300,
+                                           "--out", w.root / "er"], "the gain 1e-300 mmHg per raw unit (--gain"),
     ("evaluate-real-contact-negative", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                                   "--contact-mmhg", -1], "--contact-mmhg"),
     ("realism-examples-negative", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,

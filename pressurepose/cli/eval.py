@@ -102,6 +102,8 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_evaluate_real(args) -> int:
     import dataclasses
+    import sys
+    import warnings
 
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
@@ -134,7 +136,11 @@ def run_evaluate_real(args) -> int:
             raise BadInput(f"--gain is {args.gain}; expected a positive number of mmHg per raw unit")
         real = dataclasses.replace(real, gain=float(args.gain))
     net = resolve_model(args.model).to(device)
-    result = evaluate_real(real, net, config)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = evaluate_real(real, net, config)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     s = result.summary
     out.mkdir(parents=True, exist_ok=True)
     result.write_metrics(out / "metrics.json", data=str(args.dir), model=str(args.model or "shipped"),

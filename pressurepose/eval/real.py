@@ -148,6 +148,13 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
 
     r, x, idx, genders, skipped = model_inputs(real, net, config)
     contact_mmhg = contact_threshold(net, config)
+    peak = float(x.max())
+    if peak <= contact_mmhg:
+        gain = (f"; the gain {r.gain:g} mmHg per raw unit (--gain, or the mat.json's gain) makes every reading "
+                f"that small" if r.units == "raw" and r.gain is not None else "")
+        raise BadInput(f"every image to score reads at most {peak:.3g} mmHg on the model's mat, not above the contact "
+                       f"threshold {contact_mmhg:g} mmHg: the model would see empty mats and the scores would mean "
+                       f"nothing{gain}")
     est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)

@@ -214,6 +214,19 @@ def pressure_warnings(arr: np.ndarray, max_mmhg: float = SENSOR_MAX_MMHG, what: 
     return notes
 
 
+def floor_warnings(arr: np.ndarray, floor_mmhg: float, what: str = "pressure") -> list[str]:
+    """A sentence about checked images (B, R, C) that are not all zero but read nothing above
+    ``floor_mmhg``, a model's contact floor (:class:`~pressurepose.net.transforms.InputConfig`): the
+    model drops readings at or below it, so it sees an empty mat. [] when there are none."""
+    peak = arr.reshape(len(arr), -1).max(axis=1)
+    faint = np.flatnonzero((peak > 0) & (peak <= floor_mmhg))
+    if not len(faint):
+        return []
+    return [f"{what}: image(s) {', '.join(map(str, faint[:10].tolist()))}{' ...' if len(faint) > 10 else ''} read at "
+            f"most {float(peak[faint].max()):.3g} mmHg, not above the model's contact floor ({floor_mmhg:g} mmHg), at "
+            f"or below which it drops readings: it sees an empty mat, and their estimates mean nothing"]
+
+
 def _genders(gender, n: int) -> list[str]:
     items = [gender] * n if isinstance(gender, (str, int, np.integer)) else list(gender)
     if len(items) != n:
@@ -298,9 +311,10 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     (:mod:`pressurepose.net.mirror`; about twice the work).
     what: the input's name in messages (default: the file, or 'pressure').
 
-    Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings`) about empty images and
-    readings above the sensor's range; BadInput when every image is empty or readings lie beyond
-    10 times the range (not mmHg).
+    Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings` and
+    :func:`floor_warnings`) about empty images, readings above the sensor's range and images that read
+    nothing above the model's contact floor; BadInput when every image is empty or readings lie
+    beyond 10 times the range (not mmHg).
     """
     import warnings
 
@@ -325,7 +339,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         arr = check_pressure(pressure, net.config.grid.shape, what=what)
         notes = None
     genders = _genders(gender, len(arr))
-    for note in pressure_warnings(arr, net.config.grid.max_mmhg, what) if notes is None else notes:
+    if notes is None:
+        notes = pressure_warnings(arr, net.config.grid.max_mmhg, what)
+    for note in notes + floor_warnings(arr, net.config.inputs.contact_floor_mmhg, what):
         warnings.warn(note, stacklevel=2)
     parts = run_network(net, arr, genders, batch_size, progress, mirror)
 

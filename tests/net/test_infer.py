@@ -183,6 +183,32 @@ def test_estimate_warns_as_the_cli_does(model_path):
         estimate(img, "f", model=model_path, units="raw", weight_kg=70)
 
 
+def test_images_at_or_below_the_contact_floor_are_warned_about(tmp_path, capsys):
+    """A model with a contact floor drops readings at or below it: an image reading nothing above it
+    is an empty mat to the model, which estimate() and infer say (only all-zero mats are refused)."""
+    from pressurepose.net.transforms import InputConfig
+
+    torch.manual_seed(0)
+    body = toy_body()
+    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((0.5, 1.0, 0.2), (0.3, 0.3, 0.1)),
+                    inputs=InputConfig(contact_floor_mmhg=5.0))
+    path = save_model(tmp_path / "floor.safetensors", PressureNet(cfg, gendered_body(body, body)), (body, body))
+    img = toy_dataset(2, grid=GRID)["pressure"].numpy().copy()
+    img[1] = np.where(img[1] > 0, 1.0, 0.0)  # the body's outline at 1 mmHg
+    with pytest.warns(UserWarning, match=r"image\(s\) 1 read at most 1 mmHg, not above the model's contact floor "
+                                         r"\(5 mmHg\).*sees an empty mat"):
+        estimate(img, "f", model=path)
+    np.save(tmp_path / "faint.npy", img[1:])
+    assert main(["infer", str(tmp_path / "faint.npy"), "--gender", "f", "--model", str(path),
+                 "--out", str(tmp_path / "o"), "--max-figures", "0"]) == 0
+    assert "warning: " in capsys.readouterr().err and (tmp_path / "o" / "estimate.json").exists()
+    import warnings
+
+    with warnings.catch_warnings():  # images above the floor: no such warning
+        warnings.simplefilter("error")
+        estimate(img[:1] * (20 / img[0].max()), "f", model=path)
+
+
 def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_path, capsys):
     """A recording on the BodiTrak mat in raw units, weight-normalised and resampled onto the model's
     16 x 16 mat; the model input carries the weight, and infer writes every frame and says so."""
