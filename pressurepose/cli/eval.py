@@ -202,6 +202,7 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_realism(args) -> int:
+    from pressurepose.cli.args import MAX_EXAMPLES
     from pressurepose.errors import BadInput
     from pressurepose.eval.realism_report import (
         draw_report,
@@ -214,8 +215,8 @@ def run_realism(args) -> int:
     from pressurepose.files import check_output_path, write_json_atomic
 
     out = check_output_path(args.out, "--out", directory=True)
-    if args.examples < 0:
-        raise BadInput(f"--examples is {args.examples}; expected 0 or more")
+    if not 0 <= args.examples <= MAX_EXAMPLES:
+        raise BadInput(f"--examples is {args.examples}; expected 0 to {MAX_EXAMPLES} images per set and posture")
     if args.keep_wedge and args.only_wedge:
         raise BadInput("--keep-wedge and --only-wedge go one at a time: --only-wedge already keeps the wedge images")
     sim = load_synthetic(args.synthetic, args.mat)
