@@ -155,6 +155,18 @@ def save_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> None:
     atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig_kwargs))
 
 
+def remove_stale_numbered(folder: str | Path, prefix: str, suffixes: tuple[str, ...], written) -> None:
+    """Remove the numbered files ``<prefix><digits><suffix>`` (``mesh_000.ply``, ``estimate_1000.png``)
+    in ``folder`` that are not among the paths ``written``: an earlier, longer run's, which would
+    otherwise pass for this run's."""
+    keep = {Path(p).name for p in written}
+    for path in Path(folder).glob(f"{prefix}*"):
+        number = path.name[len(prefix):]
+        for suffix in suffixes:
+            if number.endswith(suffix) and number[:-len(suffix)].isdigit() and path.name not in keep:
+                path.unlink(missing_ok=True)
+
+
 def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[str, ...] | None = None,
                       directory: bool = False) -> Path:
     """Check, before any long work, that ``path`` can be written; return it as a Path.

@@ -195,3 +195,13 @@ def test_json_written_is_strict_with_non_finite_values_as_null(tmp_path):
 
     assert json.loads(text, parse_constant=refuse) == {"a": None, "b": [1.0, None, [None, 2]], "c": [None, 3.0],
                                                        "d": {"e": None, "4": 5}, "f": "NaN"}
+
+
+def test_stale_numbered_outputs_of_a_longer_run_are_removed(tmp_path):
+    from pressurepose.files import remove_stale_numbered
+
+    for name in ("mesh_000.ply", "mesh_001.obj", "mesh_1000.ply", "mesh_notes.ply", "estimate_000.png", "mine.ply"):
+        (tmp_path / name).write_text("x")
+    remove_stale_numbered(tmp_path, "mesh_", (".ply", ".obj"), [tmp_path / "mesh_000.ply"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["estimate_000.png", "mesh_000.ply", "mesh_notes.ply",
+                                                          "mine.ply"]

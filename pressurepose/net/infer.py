@@ -26,6 +26,7 @@ from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32
 from pressurepose.files import (
     atomic_write,
+    remove_stale_numbered,
     save_npz_atomic,
     write_json_atomic,
 )
@@ -95,11 +96,7 @@ class Estimate:
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
             atomic_write(p, lambda t, mesh=mesh: mesh.export(str(t), file_type=mesh_format))
             paths.append(p)
-        # meshes of an earlier, longer estimate in the same folder would pass for this one's
-        written = set(paths)
-        for stale in [*out.glob("mesh_[0-9][0-9][0-9].ply"), *out.glob("mesh_[0-9][0-9][0-9].obj")]:
-            if stale not in written:
-                stale.unlink()
+        remove_stale_numbered(out, "mesh_", (".ply", ".obj"), paths)  # an earlier, longer estimate's
         return paths
 
 

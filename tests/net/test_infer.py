@@ -142,6 +142,11 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
                  "--out", str(tmp_path / "a")]) == 0
     left = sorted(p.name for p in (tmp_path / "a").iterdir())
     assert left == ["estimate.json", "estimate.npz", "estimate_000.png", "mesh_000.ply", "notes.txt"]
+    for name in ("mesh_1000.ply", "estimate_1000.png"):  # a run of over 1000 images numbers with 4 digits
+        (tmp_path / "a" / name).write_text("an earlier run's")
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
+                 "--out", str(tmp_path / "a")]) == 0
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == left
     assert main(["infer", str(tmp_path / "one.csv"), "--model", str(model_path), "--out", str(tmp_path / "d")]) == 2
     # bad input: a clear error and exit status 2
     np.save(tmp_path / "nan.npy", np.full((16, 16), np.nan))
