@@ -41,6 +41,7 @@ def world(tmp_path_factory):
     np.save(root / "good.npy", data["pressure"][:2].numpy())
     np.save(root / "zeros.npy", np.zeros((64, 27), np.float32))
     np.save(root / "huge.npy", np.full((64, 27), 1e9, np.float32))
+    np.save(root / "beyond_float32.npy", np.full((64, 27), 1e39))
     np.save(root / "slp.npy", np.ones((192, 84), np.float32))
     (root / "text.npy").write_text("1 2 3\n")
     (root / "empty.npy").write_bytes(b"")
@@ -48,6 +49,10 @@ def world(tmp_path_factory):
     with h5py.File(root / "dangling.h5", "w") as f:
         f["pressure"] = h5py.SoftLink("/nowhere")
     write_toy_dataset(root / "nested", n=4)
+    from pressurepose.sim.bed import get_bed
+
+    for name, field, value in (("bed_tiny_cell", "press_cell_m", 1e-9), ("bed_huge", "mattress_length_m", 1e6)):
+        (root / f"{name}.json").write_text(json.dumps({**get_bed().to_dict(), field: value}))
     write_labelled(root / "real_raw", np.stack([body_image(64, 27, seed=i) for i in range(2)]), ["supine", "left"],
                    {"preset": "boditrak_bt3510", "units": "raw"})
     write_toy_dataset(root / "nested" / "inner", n=4, seed=2)
@@ -95,6 +100,9 @@ REFUSED = [
                                    "--out", w.root / "e1"], "empty"),
     ("infer-absurd-pressure", lambda w: ["infer", w.root / "huge.npy", "--gender", "f", "--model", w.model,
                                          "--out", w.root / "e2"], "sensor's range"),
+    ("infer-beyond-float32", lambda w: ["infer", w.root / "beyond_float32.npy", "--gender", "f", "--model", w.model,
+                                        "--out", w.root / "e7"], "beyond_float32.npy' holds values up to 1e+39, out "
+                                                                 "of range: too large for float32"),
     ("infer-other-mat", lambda w: ["infer", w.root / "slp.npy", "--gender", "f", "--model", w.model,
                                    "--out", w.root / "e3"], "resample"),
     ("calibrate-max-evals-zero", lambda w: ["calibrate", "--targets", "default", "--max-evals", 0,
@@ -190,6 +198,12 @@ REFUSED = [
     ("demo-neutral-body", lambda w: ["demo", "--gender", "n", "--out", w.root / "demo_n"], "expected f or m"),
     ("convert-missing-source", lambda w: ["convert", w.root / "no_such.p", "--out", w.root / "cv"],
      "does not exist"),
+    ("generate-bed-tiny-cell", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
+                                          "--bed", w.root / "bed_tiny_cell.json", "--out", w.root / "g6"],
+     "bed_tiny_cell.json': bed press_cell_m is 1e-09 m"),
+    ("generate-bed-huge-mattress", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
+                                              "--bed", w.root / "bed_huge.json", "--out", w.root / "g7"],
+     "bed_huge.json': bed mattress_length_m is 1000000.0 m"),
     ("generate-shard-out-of-range", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
                                                "--producer", "synthetic", "--shards", "3", "--out", w.root / "g5"],
      "do not exist"),
