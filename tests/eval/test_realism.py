@@ -105,6 +105,11 @@ def test_bad_input_names_the_problem():
         R.image_stats(-np.ones((1, 64, 27)), MAT)
     with pytest.raises(BadInput, match="bounds"):
         R.RegionRule(bounds=(0.5, 0.4, 0.6, 0.7, 0.8, 0.9))
+    img = np.stack([body(), body()])
+    with pytest.raises(BadInput, match=r"height_m of image 1 is nan \(1 of 2 not a positive number\)"):
+        R.extent_ratio(img, MAT, [1.7, float("nan")])
+    with pytest.raises(BadInput, match=r"height_m has shape \(1,\); expected \(2,\)"):
+        R.load_profile(img, MAT, [1.7])
 
 
 def test_realism_verb_end_to_end(tmp_path):
