@@ -341,7 +341,12 @@ def test_the_realism_figure_is_sized_by_the_images_there(tmp_path, monkeypatch):
     """Asking for more example images than a posture has draws a figure of the images there: its
     grid of examples has as many columns as the images (and the colour bar), not as asked."""
     import pressurepose.files as files
-    from pressurepose.eval.realism_report import draw_report, load_real, load_synthetic, realism_report
+    from pressurepose.eval.realism_report import (
+        draw_report,
+        load_real,
+        load_synthetic,
+        realism_report,
+    )
 
     write_labelled(tmp_path / "real", np.stack([body()] * 3), ["supine"] * 3,
                    {"preset": "boditrak_bt3510", "units": "mmHg"})
