@@ -32,6 +32,7 @@ from pressurepose.files import (
 )
 from pressurepose.mat import MatSpec
 from pressurepose.net.model import GENDER_CODES, PressureNet
+from pressurepose.net.pmr import surface_maps
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
@@ -43,7 +44,9 @@ class Estimate:
 
     betas (B, 10); pose (B, 72) SMPL axis-angle (root first); transl (B, 3); joints (B, 24, 3);
     vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
-    reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
+    reconstructed pressure map of the body (its sink below the mattress top, mm, read from its
+    lower surface as the simulator reads a body: :func:`pressurepose.net.pmr.surface_maps`);
+    contact (B, R, C) its contact map (1 where the body is below the mattress top);
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
@@ -346,9 +349,14 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
+    # the final bodies' maps from their lower surface, on the model's device, 32 bodies at a time
+    # (~30 000 triangle-cell pairs each)
+    maps = [surface_maps(o2.vertices[s:s + 32], net.body.faces, net.config.grid, net.config.pmr)
+            for _, o2 in parts for s in range(0, o2.vertices.shape[0], 32)]
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
-                    pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
+                    pressure=arr, q=torch.cat([m.q for m in maps]).float().cpu().numpy(),
+                    contact=torch.cat([m.contact for m in maps]).float().cpu().numpy(),
                     gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
                     frame=frame)

@@ -57,7 +57,7 @@ class NetConfig:
     gender_input: append the gender flag to the CNN features (not in the paper; default off).
     dropout: CNN dropout probability (paper 0.1).
     cnn_channels: the widths of the CNN's four conv layers (the paper's (192, 192, 384, 384); see
-    :data:`pressurepose.net.cnn.CNN_VARIANTS` for lighter ones).
+    :data:`pressurepose.net.cnn.CNN_VARIANTS` for the named widths).
     """
 
     grid: MatSpec
@@ -112,6 +112,8 @@ class NetConfig:
         if not isinstance(d, dict):
             raise BadInput(f"config is {type(d).__name__}; expected a JSON object")
         d = dict(d)
+        if "cnn_channels" not in d:
+            raise BadInput("lacks 'cnn_channels'")
         parts = {}
         for name, build in (("grid", MatSpec.from_dict), ("outputs", OutputConfig), ("inputs", InputConfig),
                             ("pmr", PMRConfig)):
@@ -126,7 +128,6 @@ class NetConfig:
                 raise BadInput(f"{name}: {exc}") from None
             except BadInput as exc:
                 raise BadInput(f"{name}: {exc}" if name == "grid" else str(exc)) from None
-        # cnn_channels: absent from models saved before it existed, which have the paper's
         try:
             return NetConfig(**parts, **d)
         except TypeError as exc:
