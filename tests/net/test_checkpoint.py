@@ -157,6 +157,8 @@ BAD_CONFIG = [
     ("grid-too-small", _set("grid", "rows", value=4), "the CNN needs at least 31 x 31"),
     ("use-pmr-number", _set("use_pmr", value=1), "use_pmr is 1; expected true or false"),
     ("pmr-passes-negative", _set("pmr", "fill_passes", value=-1), "pmr.fill_passes is -1"),
+    ("no-cnn-channels", lambda config: config.pop("cnn_channels"), "lacks 'cnn_channels'"),
+    ("no-inputs", lambda config: config.pop("inputs"), "lacks 'inputs'"),
     ("unknown-field", _set("inputs", "colour", value=1), "inputs: .*unexpected keyword argument 'colour'"),
     # valid on its own but not the stored weights' network: refused before a larger one is built
     ("grid-other-size", _set("grid", "rows", value=100),
