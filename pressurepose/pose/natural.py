@@ -7,7 +7,8 @@ draw a body's 23 joint rotations (SMPL's ``pose[3:]``, the body pose without the
 ``assets/natural_poses.npz``, holds only each mixture's weights, means and covariances (and which
 pose values they cover); ``tools/fit_natural_poses.py`` rebuilds it from SMPL fits to the SLP
 dataset (subjects 1-60; NOTICE.md says what was fitted to what). Every component averages over at
-least ``MIN_COUNT`` poses, and a mean and covariance of that many poses do not determine any of them.
+least ``MIN_COUNT`` poses (``2 MIN_COUNT`` points of the mirrored supine set), and a mean and
+covariance of that many poses do not determine any of them.
 
 What was fitted (:func:`fit_natural_poses`): the supine mixture to the supine poses and their
 mirror images (left and right swapped: :func:`mirror_poses`; supine people lie about as often
@@ -37,6 +38,23 @@ GROUPS: tuple[str, ...] = ("supine", "left_lateral", "right_lateral")
 MIN_COUNT = 50  # poses each component averages over, at least
 HELD_SD_RAD = np.radians(1.0)  # pose values varying less than this over the fits are held at 0
 BODY_POSE = 3 * (NUM_JOINTS - 1)  # 69
+
+
+# the ``posture`` labels of the SLP fits (SLP's instructed postures) as posture classes
+LABEL_GROUPS = {"supine": "supine", "left": "left_lateral", "right": "right_lateral"}
+FITS_ENV = "PRESSUREPOSE_SLP_FITS"  # where tools and benchmarks look for the SLP fits when not told
+
+
+def posture_groups(poses) -> np.ndarray:
+    """(N,) posture class of each pose of a :class:`~pressurepose.pose.posefile.PoseSet`: its file's
+    own ``posture`` label where it has one of :data:`LABEL_GROUPS` (the posture a person was asked to
+    take: in the SLP fits 7 % of the side-lying bodies have a root turned into another class), else
+    the class of its root orientation."""
+    groups = np.array(poses.postures, dtype=object)
+    if poses.labels is not None:
+        named = np.isin(poses.labels, list(LABEL_GROUPS))
+        groups[named] = [LABEL_GROUPS[str(v)] for v in poses.labels[named]]
+    return groups.astype(str)
 
 
 def mirror_poses(pose) -> np.ndarray:
@@ -121,19 +139,22 @@ def natural_poses() -> NaturalPoses:
 class FitSettings:
     """How :func:`fit_natural_poses` fits: components (at most, per posture), reg_deg (sd added to
     every covariance's diagonal, degrees), min_count (poses per component, at least), seed (EM's
-    start), mirror_supine (fit supine to the poses and their mirror images)."""
+    first start), restarts (EM runs from seeds seed, seed + 1, ...; the one most likely on the
+    poses it was fitted to is kept), mirror_supine (fit supine to the poses and their mirror images)."""
 
     components: int = 16
     reg_deg: float = 1.0
     min_count: int = MIN_COUNT
     seed: int = 0
+    restarts: int = 4
     mirror_supine: bool = True
 
 
 def fit_natural_poses(pose, posture, settings: FitSettings = FitSettings(), fitted_to: str = "") -> NaturalPoses:
     """Mixtures fitted to poses (N, 72) whose posture classes (N,) (names of :data:`GROUPS`; others
     ignored) are given, as the module docstring says; a class with fewer than ``min_count`` poses
-    gets no mixture."""
+    gets no mixture. A mirrored supine fit counts each pose twice, so its components keep at least
+    twice ``min_count`` points."""
     pose = np.asarray(pose, dtype=np.float64)
     posture = np.asarray(posture)
     if pose.ndim != 2 or pose.shape[1] != 3 * NUM_JOINTS or posture.shape != (len(pose),):
@@ -146,11 +167,14 @@ def fit_natural_poses(pose, posture, settings: FitSettings = FitSettings(), fitt
     mixtures = {}
     for group in GROUPS:
         x = pose[posture == group]
-        if group == "supine" and settings.mirror_supine:
-            x = np.concatenate([x, mirror_poses(x)])
-        if len(x) < settings.min_count:
+        least = settings.min_count
+        if len(x) < least:
             continue
-        mixtures[group] = fit_mixture(x[:, 3:][:, dims], settings.components, np.radians(settings.reg_deg) ** 2,
-                                      seed=settings.seed, min_count=settings.min_count)
+        if group == "supine" and settings.mirror_supine:
+            # each pose comes twice (itself, its mirror): twice the points keep min_count poses apiece
+            x, least = np.concatenate([x, mirror_poses(x)]), 2 * least
+        fits = [fit_mixture(x[:, 3:][:, dims], settings.components, np.radians(settings.reg_deg) ** 2,
+                            seed=settings.seed + k, min_count=least) for k in range(settings.restarts)]
+        mixtures[group] = max(fits, key=lambda m: float(m.log_density(x[:, 3:][:, dims]).mean()))
     record = json.dumps({k: getattr(settings, k) for k in settings.__dataclass_fields__}, sort_keys=True)
     return NaturalPoses(mixtures, dims, f"{fitted_to} {record}".strip())
