@@ -10,7 +10,7 @@ import sys
 
 BENCHMARKS = (("bench_body", []), ("bench_sampler", []), ("bench_press", []), ("bench_settle", []),
               ("bench_settle", ["--agreement", "4", "--seed", "7"]), ("bench_simulate", []), ("bench_data", []),
-              ("bench_net", []), ("bench_calibrate", []))
+              ("bench_net", []), ("bench_calibrate", []), ("bench_real_poses", []))
 
 
 def main() -> int:

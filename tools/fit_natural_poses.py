@@ -87,7 +87,8 @@ def choose(path: str) -> None:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--fits", default=os.environ.get(FITS_ENV), help=f"SMPL fits .npz [${FITS_ENV}]")
     p.add_argument("--out", default=str(ASSET), help=f"model file to write [{ASSET.relative_to(REPO)}]")
     p.add_argument("--subjects", type=subject_range, default=(1, 60), help="subjects to fit to [1-60]")
@@ -108,10 +109,11 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     for g, mix in model.mixtures.items():
-        counts = np.sort(np.round(mix.weights * np.sum(group == g))).astype(int)
-        print(f"{g}: {len(mix.weights)} components over {np.sum(group == g)} poses (weights x poses: "
+        counts = np.sort(np.round(mix.weights * model.poses[g])).astype(int)
+        print(f"{g}: {len(mix.weights)} components over {model.poses[g]} poses (weights x poses: "
               f"{', '.join(map(str, counts))})")
-    print(f"{len(model.dims)} of 69 body pose values modelled; wrote {args.out} ({Path(args.out).stat().st_size // 1024} kB)")
+    size = Path(args.out).stat().st_size // 1024
+    print(f"{len(model.dims)} of 69 body pose values modelled; wrote {args.out} ({size} kB)")
     return 0
 
 

@@ -68,11 +68,13 @@ def mirror_poses(pose) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class NaturalPoses:
     """Per posture class (``mixtures`` keys, some of :data:`GROUPS`), a mixture over the body pose
-    values ``dims`` (indices into the 69 of ``pose[3:]``; the rest are 0); ``fitted_to``: a line
-    saying what the mixtures were fitted to."""
+    values ``dims`` (indices into the 69 of ``pose[3:]``; the rest are 0); ``poses``: how many poses
+    each was fitted to (so ``weights x poses`` is how many each component averages over);
+    ``fitted_to``: a line saying what the mixtures were fitted to."""
 
     mixtures: dict
     dims: np.ndarray
+    poses: dict
     fitted_to: str = ""
 
     def __post_init__(self):
@@ -87,6 +89,8 @@ class NaturalPoses:
                 raise BadInput(f"natural poses: posture {group!r}; expected some of {', '.join(GROUPS)}")
             if mix.dim != len(dims):
                 raise BadInput(f"natural poses: the {group} mixture has {mix.dim} dimensions; dims has {len(dims)}")
+            if group not in self.poses:
+                raise BadInput(f"natural poses: the {group} mixture has no pose count")
 
     def draw(self, rng: np.random.Generator, group: str) -> np.ndarray:
         """One body pose (69,) (``pose[3:]``, rad) of posture class ``group`` drawn with ``rng``."""
@@ -103,28 +107,30 @@ class NaturalPoses:
         for group, mix in self.mixtures.items():
             for name in ("weights", "means", "covariances"):
                 arrays[f"{group}.{name}"] = getattr(mix, name).astype(np.float32)
+            arrays[f"{group}.poses"] = np.array(int(self.poses[group]))
         save_npz_atomic(path, **arrays)
 
     @classmethod
     def load(cls, path=ASSET) -> "NaturalPoses":
         d = load_npz(path, "natural pose model")
-        mixtures = {}
-        for group in map(str, d.get("groups", ())):
-            keys = [f"{group}.{n}" for n in ("weights", "means", "covariances")]
-            missing = [k for k in keys if k not in d]
-            if missing:
-                raise BadInput(f"natural pose model {str(path)!r} lacks {', '.join(missing)}")
-            w, m, c = (d[k].astype(np.float64) for k in keys)
-            mixtures[group] = GaussianMixture(w / w.sum(), m, 0.5 * (c + np.swapaxes(c, 1, 2)))
         missing = [k for k in ("dims", "groups", "fitted_to") if k not in d]
         if missing:
             raise BadInput(f"natural pose model {str(path)!r} lacks {', '.join(missing)}")
-        return cls(mixtures, d["dims"], str(d["fitted_to"]))
+        mixtures, poses = {}, {}
+        for group in map(str, d["groups"]):
+            keys = [f"{group}.{n}" for n in ("weights", "means", "covariances", "poses")]
+            missing = [k for k in keys if k not in d]
+            if missing:
+                raise BadInput(f"natural pose model {str(path)!r} lacks {', '.join(missing)}")
+            w, m, c = (d[k].astype(np.float64) for k in keys[:3])
+            mixtures[group] = GaussianMixture(w / w.sum(), m, 0.5 * (c + np.swapaxes(c, 1, 2)))
+            poses[group] = int(d[keys[3]])
+        return cls(mixtures, d["dims"], poses, str(d["fitted_to"]))
 
     def describe(self) -> dict:
         """Components per posture and the fitted_to line, for reports."""
-        return {"components": {g: len(m.weights) for g, m in self.mixtures.items()}, "dims": len(self.dims),
-                "fitted_to": self.fitted_to}
+        return {"components": {g: len(m.weights) for g, m in self.mixtures.items()}, "poses": dict(self.poses),
+                "dims": len(self.dims), "fitted_to": self.fitted_to}
 
 
 @lru_cache(maxsize=1)
@@ -164,9 +170,10 @@ def fit_natural_poses(pose, posture, settings: FitSettings = FitSettings(), fitt
         raise BadInput(f"no pose has a posture of {', '.join(GROUPS)}")
     held = pose[used, 3:].std(axis=0) < HELD_SD_RAD
     dims = np.flatnonzero(~held)
-    mixtures = {}
+    mixtures, counts = {}, {}
     for group in GROUPS:
         x = pose[posture == group]
+        counts[group] = len(x)
         least = settings.min_count
         if len(x) < least:
             continue
@@ -177,4 +184,4 @@ def fit_natural_poses(pose, posture, settings: FitSettings = FitSettings(), fitt
                             seed=settings.seed + k, min_count=least) for k in range(settings.restarts)]
         mixtures[group] = max(fits, key=lambda m: float(m.log_density(x[:, 3:][:, dims]).mean()))
     record = json.dumps({k: getattr(settings, k) for k in settings.__dataclass_fields__}, sort_keys=True)
-    return NaturalPoses(mixtures, dims, f"{fitted_to} {record}".strip())
+    return NaturalPoses(mixtures, dims, {g: counts[g] for g in mixtures}, f"{fitted_to} {record}".strip())

@@ -200,7 +200,8 @@ class PoseFile:
         return cls(**d)
 
     def poses(self) -> PoseSet:
-        """The file's poses; BadInput if the file is gone or its bytes are not those recorded."""
+        """The file's poses (read once per process); BadInput if the file is gone or its bytes are not
+        those recorded."""
         return _load(self.path, self.sha256, self.frame)
 
 

@@ -15,12 +15,8 @@ supine legs roll outward; a fifth turn an arm beyond its limits), so rejecting k
 supine poses drawn from the natural model and doubled their distance from real people's (2.3 ->
 4.6 cm, :mod:`pressurepose.pose.fidelity`), while clipping moves only the values beyond (2.3 ->
 2.6 cm). The limits are the settle's too (:mod:`pressurepose.sim.ragdoll`), so it does not fight a
-clipped pose. The pose is kept when it passes:
+clipped pose. Then, in order:
 
-``off_mattress``   unless limbs may hang (``SamplerConfig.hanging_limbs``), the elbows, wrists,
-                   hands, knees, ankles and feet lie over the mattress, ``side_margin_m`` from its
-                   sides, once the body has slid across the bed as little as brings them there (a
-                   person on their side lies back from the edge their knees point to);
 ``self_collision`` the limbs' capsules penetrate no other (:mod:`pressurepose.pose.collision`), at
                    the capsules' own radii: the settle's test (:mod:`pressurepose.sim.settle`),
                    not the limb sampler's 1.2 x (``SamplerConfig.collision_radius_scale``, which
@@ -28,7 +24,11 @@ clipped pose. The pose is kept when it passes:
                    apart: the colliding limbs' joints (hip, knee, ankle / shoulder, elbow, wrist)
                    are turned by Gaussian nudges, ``SEPARATE_TRIES`` per round with the sd growing
                    by ``SEPARATE_STEP_DEG`` a round, and the free nudge that moves the joints least
-                   in the first round that has one is kept.
+                   in the first round that has one is kept;
+``off_mattress``   unless limbs may hang (``SamplerConfig.hanging_limbs``), the elbows, wrists,
+                   hands, knees, ankles and feet lie over the mattress, ``side_margin_m`` from its
+                   sides, once the body has slid across the bed as little as brings them there (a
+                   person on their side lies back from the edge their knees point to).
 
 Why nudge: people rest their hands on their belly and chest and their legs against each other, which
 capsules (rigid, fitted round the flesh) cannot do; 9 in 10 of the real poses collide so. Rejecting
@@ -170,6 +170,7 @@ class WholePoseRun(Run):
 
     def __init__(self, part: Partition, body, config, limbs_on_bed: bool, rngs, source):
         self.source = source
+        self.placed_x = np.zeros(len(rngs))
         super().__init__(part, body, config, limbs_on_bed, rngs)
         self.body_pose = np.zeros((len(rngs), 69))
         self.misses = np.zeros(len(rngs), dtype=np.int64)
@@ -178,6 +179,7 @@ class WholePoseRun(Run):
     def _draw_body(self, i: int) -> None:
         super()._draw_body(i)
         self.col_radius[i] = self.cap_radius[i]  # the capsules' own radii (see the module docstring)
+        self.placed_x[i] = self.pelvis[i, 0]  # where the placement put it, before any slide across
 
     def _assemble_pose(self, idx: np.ndarray) -> np.ndarray:
         pose = np.zeros((len(idx), 72))
@@ -239,6 +241,7 @@ class WholePoseRun(Run):
     def _over_mattress(self, idx: np.ndarray) -> np.ndarray:
         """(len(idx),) True where the limbs' on-bed joints lie over the mattress (see module doc),
         after sliding each body across the bed as little as brings them within its sides."""
+        self.pelvis[idx, 0] = self.placed_x[idx]
         pose = self._assemble_pose(idx)
         G = forward_kinematics(rodrigues(pose.reshape(-1, 24, 3)), self.rest[idx], self.body.parents)
         pos = G[..., :3, 3] @ Q.T + (self.pelvis[idx] - self.rest[idx, 0] @ Q.T)[:, None]
@@ -256,6 +259,7 @@ class WholePoseRun(Run):
         pending = np.arange(len(self.rngs))
         while pending.size:
             self._draw_poses(pending)
+            self._separate(pending)
             active = pending
             if self.on_bed:
                 over = self._over_mattress(pending)
@@ -267,7 +271,6 @@ class WholePoseRun(Run):
                         self._draw_body(i)
                         self.counts[i, _COL["bodies_redrawn"]] += 1
                 active = pending[over]
-            self._separate(active)
             done = active[self._check(active)] if active.size else active
             pending = pending[~np.isin(pending, done)]
         self._bins_reached()
