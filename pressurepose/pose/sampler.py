@@ -78,6 +78,10 @@ the chest, 21% of ours with our capsules' own radii); the self-collision tests t
 capsule 1.2x (``SamplerConfig.collision_radius_scale``): 19% of wrists over the chest, largest W1,
 shoulder swing, 7.1 -> 4.6 deg, mean 2.43 -> 2.24 (the paper's settings).
 
+Whole poses: the natural partitions (``Partition.natural``) and a pose file
+(``SamplerConfig.poses``) draw every body pose at once instead of limb by limb, under the joint
+limits, collision and mattress rules of :mod:`pressurepose.pose.whole` (:func:`pose_source`).
+
 Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
 :func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
 ``sample_one(..., rng=body_rng(seed, i))`` returns the same body.

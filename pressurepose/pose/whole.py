@@ -10,12 +10,12 @@ body pose from the source for the posture class of the drawn roll
 flexion, collar + shoulder, elbow flexion: :mod:`pressurepose.pose.limits`) is then clipped to its
 limits (:func:`clip_to_limits`); the values it holds at 0 while drawing limbs (spine, neck, ankles,
 wrists, the hinges' other axes) stay as drawn. Clipped, not rejected: real people lie beyond the
-limits (in the SMPL fits to SLP, 6 in 10 supine poses twist a hip by more than the +-33 deg allowed:
-supine legs roll outward; a fifth turn an arm beyond its limits), so rejecting kept 7 % of the
-supine poses drawn from the natural model and doubled their distance from real people's (2.3 ->
-4.6 cm, :mod:`pressurepose.pose.fidelity`), while clipping moves only the values beyond (2.3 ->
-2.6 cm). The limits are the settle's too (:mod:`pressurepose.sim.ragdoll`), so it does not fight a
-clipped pose. Then, in order:
+limits (in the SMPL fits to SLP, 85 % of the supine poses twist a hip by more than the +-33 deg
+allowed: supine legs roll outward; a fifth turn an arm beyond its limits; 11 % lie within them all),
+so rejecting kept 7 % of the supine poses drawn from the natural model and doubled their distance
+from the held-out people's (2.2 -> 4.5 cm, :mod:`pressurepose.pose.fidelity`), while clipping moves
+only the values beyond (2.2 -> 2.5 cm). The limits are the settle's too
+(:mod:`pressurepose.sim.ragdoll`), so it does not fight a clipped pose. Then, in order:
 
 ``self_collision`` the limbs' capsules penetrate no other (:mod:`pressurepose.pose.collision`), at
                    the capsules' own radii: the settle's test (:mod:`pressurepose.sim.settle`),
@@ -31,10 +31,10 @@ clipped pose. Then, in order:
                    person on their side lies back from the edge their knees point to).
 
 Why nudge: people rest their hands on their belly and chest and their legs against each other, which
-capsules (rigid, fitted round the flesh) cannot do; 9 in 10 of the real poses collide so. Rejecting
-them kept the tenth whose hands touch nothing: real held-out supine poses passed through these rules
-lay 5.6 cm from themselves (end-joint distance, :mod:`pressurepose.pose.fidelity`) with the 1.2 x
-radii and no nudging; nudged, 3.8 cm at 1.2 x and 2.9 cm at 1.0 x (side-lying: 3.5, 1.9, 1.4 cm).
+capsules (rigid, fitted round the flesh) cannot do; about 9 in 10 of the real poses collide so.
+Rejecting them keeps the tenth whose hands touch nothing: 300 held-out supine fits (subjects 61-80)
+passed through these rules lay 7.4 cm from themselves (end-joint distance) with the 1.2 x radii and
+no nudging; nudged, 4.1 cm at 1.2 x and 2.9 cm at 1.0 x (600 side-lying fits: 3.9, 2.1, 1.8 cm).
 
 A rejected pose is redrawn, and after ``off_bed_patience`` or ``collision_patience`` rejections
 the body's shape, root and place as well. Bins are not drawn: the returned bins are the ones the
