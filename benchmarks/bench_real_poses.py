@@ -3,7 +3,7 @@
     OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_real_poses [--fits PATH] [--count 600]
         [--seed 0] [--settle N] [--no-write]
 
-The reference is the SMPL fits to the SLP dataset (Clever and Grady's fits to Liu and Ostadabbas's
+Real poses: the SMPL fits to the SLP dataset (Clever and Grady's fits to Liu and Ostadabbas's
 SLP; subjects 1-80, 45 instructed poses each: 15 supine, 15 on each side), found at ``--fits`` or
 ``$PRESSUREPOSE_SLP_FITS``; without them the benchmark says so and returns 0. The natural pose model
 (:mod:`pressurepose.pose.natural`) was fitted to subjects 1-60, so every figure here is measured
