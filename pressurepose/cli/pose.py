@@ -29,12 +29,35 @@ def add_body_arguments(p: argparse.ArgumentParser) -> None:
                    help="let limbs start beyond the mattress and rest hanging over its edge (the paper's "
                         "partitions without limbs-on-bed); default: limbs start over the mattress and a body "
                         "resting with a limb hanging over the edge is rejected")
+    p.add_argument("--poses", default=None, metavar="FILE",
+                   help="draw every body's pose from this SMPL pose file instead of the partition's limb draws: "
+                        "an .npz with global_orient (N x 3) and body_pose (N x 69), as SMPL fits are written, or "
+                        "pose (N x 72), as `sample` writes; axis-angle, SMPL's joint order. Each body takes a "
+                        "pose of its roll's posture (supine, left or right side, prone: by the pose's root) "
+                        "plus --pose-noise, clipped to the joint limits, nudged apart where limbs collide "
+                        "(pressurepose.pose.whole); the partition then gives only the roll, so use one without "
+                        "limb rules (general, general_supine, general_lateral, propped_lateral, natural_*). "
+                        "Use poses you have the rights to train on")
+    p.add_argument("--pose-noise", type=float, default=5.0, metavar="DEG",
+                   help="with --poses: sd of the Gaussian noise added to each axis-angle component of each "
+                        "body joint, degrees [5]")
+    p.add_argument("--pose-frame", choices=("auto", "bed", "camera"), default="auto",
+                   help="with --poses: the frame of the file's root orientations: bed (z up, y toward the "
+                        "feet), camera (an overhead camera's: x image-right, y toward the feet, z into the bed), "
+                        "or auto: the file's own 'frame' entry, else camera for global_orient/body_pose files "
+                        "and bed for pose files [auto]")
 
 
 def body_settings(args) -> dict:
     """SamplerConfig / GenerationConfig keywords from :func:`add_body_arguments`' options."""
+    from pressurepose.errors import BadInput
+    from pressurepose.pose.posefile import PoseFile
+
+    if args.poses is None and (args.pose_noise != 5.0 or args.pose_frame != "auto"):
+        raise BadInput("--pose-noise and --pose-frame go with --poses FILE")
+    poses = PoseFile.of(args.poses, args.pose_frame, args.pose_noise) if args.poses else None
     return {"shapes": args.shapes, "placement": args.placement, "hanging_limbs": bool(args.hanging_limbs),
-            "across_sd_m": args.across_sd, "across_sd_lateral_m": args.across_sd_lateral}
+            "across_sd_m": args.across_sd, "across_sd_lateral_m": args.across_sd_lateral, "poses": poses}
 
 
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:
@@ -117,8 +140,9 @@ def run_sample(args) -> int:
     print(f"{len(batch)} {batch.partition} bodies ({gender}{', limbs on bed' if batch.limbs_on_bed else ''}) "
           f"in {dt:.1f} s ({len(batch) / dt:.0f}/s); wrote {args.out}")
     attempts = batch.attempts
-    print("rejected: " + ", ".join(f"{c} {n}" for c, n in batch.rejections.items() if n)
-          + f" (of {attempts['limb_candidates']} limb candidates, {attempts['full_poses']} whole poses)")
+    drawn = (f"{attempts['limb_candidates']} limb candidates, " if attempts["limb_candidates"] else "")
+    print("rejected: " + (", ".join(f"{c} {n}" for c, n in batch.rejections.items() if n) or "none")
+          + f" (of {drawn}{attempts['full_poses']} whole poses)")
     if args.plot:
         from pressurepose.viz.samples import plot_samples
 

@@ -49,6 +49,10 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     out = Path(out)
     get_mat(config.mat)  # unknown mats fail here, before anything is written
     resolve_producer(config.producer)
+    if config.poses and config.producer == "physics":
+        from pressurepose.data.physics import check_poses
+
+        check_poses(config)
     check_executor(workers, ray_address, retries)
     if only_shards is not None:  # before anything is written
         bad = [k for k in only_shards if not 0 <= k < config.num_shards]

@@ -33,7 +33,18 @@ def sampler_config(config: GenerationConfig):
     from pressurepose.pose.config import SamplerConfig
 
     return SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
-                         across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m)
+                         across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m,
+                         poses=config.pose_file())
+
+
+def check_poses(config: GenerationConfig) -> None:
+    """BadInput now, not in a worker, if the config's pose file cannot serve its partition (missing or
+    changed file, limb rules, postures it lacks: :func:`pressurepose.pose.sampler.pose_source`)."""
+    if config.poses:
+        from pressurepose.pose.partitions import get_partition
+        from pressurepose.pose.sampler import pose_source
+
+        pose_source(get_partition(config.partition), sampler_config(config))
 
 
 def settle_config(config: GenerationConfig):
@@ -48,7 +59,10 @@ def provenance(config: GenerationConfig) -> dict:
     the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
-    record = {"sampler": dataclasses.asdict(sampler_config(config)),
+    sampler = dataclasses.asdict(sampler_config(config))
+    if sampler["poses"] is None:
+        del sampler["poses"]  # recorded only when set, so datasets begun before it existed resume
+    record = {"sampler": sampler,
               "settle": dataclasses.asdict(settle_config(config)), "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges

@@ -173,6 +173,21 @@ def _canonical_bed(bed, mat: str) -> str:
     return json.dumps(spec.to_dict(), sort_keys=True)
 
 
+def _canonical_poses(poses) -> str:
+    """The canonical JSON of a pose file record (a PoseFile, its dict or JSON; None or "" for none)."""
+    from pressurepose.pose.posefile import PoseFile
+
+    if poses is None or poses == "":
+        return ""
+    if isinstance(poses, str):
+        try:
+            poses = json.loads(poses)
+        except json.JSONDecodeError as exc:
+            raise BadInput(f"poses is not a JSON pose file record ({exc})") from None
+    record = poses if isinstance(poses, PoseFile) else PoseFile.from_dict(poses)
+    return json.dumps(asdict(record), sort_keys=True)
+
+
 @dataclass(frozen=True)
 class GenerationConfig:
     """Everything that decides a dataset's content; saved in its manifest.
@@ -193,7 +208,11 @@ class GenerationConfig:
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
     how bodies come to rest (:data:`pressurepose.sim.settle_config.SETTLES`: 'relaxed', the default, or
     'paper', the paper's joint springs); like the bed it changes no draw. The saved record
-    (:meth:`to_dict`) leaves out the bed and the settle at their defaults.
+    (:meth:`to_dict`) leaves out the bed and the settle at their defaults, and poses when unset.
+    poses: "" (default: the partition's own draws) or the canonical JSON of a
+    :class:`~pressurepose.pose.posefile.PoseFile` record (path, sha256, frame, noise_deg): every body
+    takes its pose from that file (:mod:`pressurepose.pose.whole`); the file must stay where it was,
+    unchanged, for the dataset to resume (every worker, Ray nodes too, reads it at that path).
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
     randomisation settings, i) for its random draws, so ``count`` and ``shard_size`` do not change it.
@@ -217,6 +236,7 @@ class GenerationConfig:
     across_sd_lateral_m: float = 0.08
     bed: str = ""
     settle: str = "relaxed"
+    poses: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "partition", check_partition(self.partition))
@@ -252,10 +272,17 @@ class GenerationConfig:
             raise BadInput(f"settle = {self.settle!r}; expected one of {', '.join(SETTLES)}")
         object.__setattr__(self, "mat", get_mat(self.mat).name)
         object.__setattr__(self, "bed", _canonical_bed(self.bed, self.mat))
+        object.__setattr__(self, "poses", _canonical_poses(self.poses))
         if not isinstance(self.producer, str) or not self.producer:
             raise BadInput(f"producer = {self.producer!r}; expected a producer name")
 
     # ---------------------------------------------------------------- derived
+    def pose_file(self):
+        """The :class:`~pressurepose.pose.posefile.PoseFile` bodies take their poses from, or None."""
+        from pressurepose.pose.posefile import PoseFile
+
+        return PoseFile.from_dict(json.loads(self.poses)) if self.poses else None
+
     def bed_spec(self):
         """The :class:`~pressurepose.sim.bed.BedSpec` the bodies lie on (``bed``, or the mat's default bed)."""
         return _bed_spec(self.bed, self.mat)
@@ -298,7 +325,11 @@ class GenerationConfig:
         else:
             del d["bed"]  # the default bed and settle are left out of the record and so of the digest
         if self.settle == "relaxed":
-            del d["settle"]
+            del d["settle"]  # likewise the default settle
+        if self.poses:
+            d["poses"] = json.loads(self.poses)
+        else:
+            del d["poses"]  # likewise no pose file
         return d
 
     def to_json(self) -> str:
@@ -317,13 +348,15 @@ class GenerationConfig:
         unknown = sorted(set(d) - known)
         if unknown:
             raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
-        missing = sorted(known - set(d) - {"bed", "settle"})  # to_dict leaves those two out at their defaults
+        missing = sorted(known - set(d) - {"bed", "settle", "poses"})  # to_dict leaves those out at their defaults
         if missing:
             raise BadInput(f"{what}: lacks {', '.join(missing)}; a dataset's config records every setting "
-                           f"(the bed and the settle only when not the defaults)")
+                           f"(the bed, the settle and a pose file only when not the defaults)")
         d = dict(d)
         if isinstance(d.get("bed"), dict):
             d["bed"] = json.dumps(d["bed"], sort_keys=True)
+        if isinstance(d.get("poses"), dict):
+            d["poses"] = json.dumps(d["poses"], sort_keys=True)
         try:
             return cls(**d)
         except TypeError as exc:

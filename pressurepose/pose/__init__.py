@@ -7,6 +7,7 @@
 from pressurepose.pose.config import SamplerConfig, mattress_outline
 from pressurepose.pose.limits import JointLimits, joint_limits
 from pressurepose.pose.partitions import PARTITIONS, Partition, get_partition
+from pressurepose.pose.posefile import PoseFile, PoseSet, read_poses
 from pressurepose.pose.samples import (
     CAUSES,
     COUNTERS,
@@ -29,4 +30,4 @@ def __getattr__(name: str):
 
 __all__ = ["JointLimits", "joint_limits", "PARTITIONS", "Partition", "get_partition", "SamplerConfig",
            "body_rng", "mattress_outline", "sample_bodies", "sample_one", "CAUSES", "COUNTERS",
-           "BodySample", "SampleBatch", "load_samples"]
+           "BodySample", "SampleBatch", "load_samples", "PoseFile", "PoseSet", "read_poses"]

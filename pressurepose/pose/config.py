@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.errors import BadInput
+from pressurepose.pose.posefile import PoseFile
 
 # BodiTrak BT-3510 sensing area (64 x 27 taxels at 28.6 mm) centred on a twin XL mattress (39 x 80 in),
 # in the bed frame: the same outline as pressurepose.sim.bed.BedSpec().mattress_bounds
@@ -71,6 +72,10 @@ class SamplerConfig:
     round up to 16 times as many (a speed knob; it changes which samples a seed gives).
     off_bed_patience, bin_patience, max_bin_redraws, cross_patience, collision_patience: see the
     module docstring.
+    poses: None, or a :class:`~pressurepose.pose.posefile.PoseFile`: every body takes its body pose
+    from that file (a pose of the drawn roll's posture class, plus its noise) instead of the
+    partition's limb draws, under the joint limits and collision rules (:mod:`pressurepose.pose.whole`);
+    the partition then gives only the roll and must set no limb rule.
     """
 
     beta_range: float = 3.0
@@ -99,6 +104,7 @@ class SamplerConfig:
     cross_patience: int = 20
     collision_patience: int = 20
     collision_radius_scale: float = 1.2
+    poses: PoseFile | None = None
 
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
@@ -136,6 +142,10 @@ class SamplerConfig:
             raise BadInput(f"sampler mattress is {self.mattress!r}; expected (x_min, x_max, y_min, y_max) "
                            f"with x_min < x_max and y_min < y_max, metres")
         object.__setattr__(self, "mattress", m)
+        if isinstance(self.poses, dict):
+            object.__setattr__(self, "poses", PoseFile.from_dict(self.poses))
+        if self.poses is not None and not isinstance(self.poses, PoseFile):
+            raise BadInput(f"sampler poses is {self.poses!r}; expected None or a PoseFile")
 
     @property
     def mattress_centre(self) -> np.ndarray:

@@ -47,6 +47,9 @@ class Partition:
     sampler's general band).
     wedge: a foam wedge props the body's back while it settles and presses on the mat with it
     (:mod:`pressurepose.sim.wedge`; its trunk capsules and length: ``WEDGE_TRUNK``, ``WEDGE_LENGTH_M``).
+    natural: the body pose (all 23 joints) is drawn whole from the model of real lying poses
+    (:mod:`pressurepose.pose.natural`) for the drawn roll's posture class, under the sampler's joint
+    limits and collision rules (:mod:`pressurepose.pose.whole`); bins are not drawn.
     """
 
     name: str
@@ -61,6 +64,7 @@ class Partition:
     arm_height_band: tuple[float, float] | None = None
     wrist_to_head: float | None = None
     wedge: bool = False
+    natural: bool = False
 
 
 PARTITIONS: dict[str, Partition] = {p.name: p for p in (
@@ -87,6 +91,13 @@ PARTITIONS: dict[str, Partition] = {p.name: p for p in (
     Partition("propped_lateral", "half turned onto either side (roll 25-70 deg each way) with a foam wedge "
               "behind the back (not a paper partition); legs over 4 bins, arms over 8",
               roll=(np.radians(25.0), np.radians(70.0)), either_side=True, wedge=True),
+    # not the paper's: poses drawn as real people lie (SMPL fits to the SLP dataset; NOTICE.md), not
+    # part of the shipped model's training data
+    Partition("natural_supine", "supine; the body pose (spine and neck too) drawn from a model of how real "
+              "people lie on their back (not a paper partition)", natural=True),
+    Partition("natural_lateral", "on either side (roll 60-120 deg each way); the body pose drawn from a model "
+              "of how real people lie on that side (not a paper partition)",
+              roll=(np.pi / 3, 2 * np.pi / 3), either_side=True, natural=True),
 )}
 # short names the CLI also accepts
 ALIASES: dict[str, str] = {"supine": "general_supine", "crossed_legs": "supine_crossed_legs",

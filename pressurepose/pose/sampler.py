@@ -78,6 +78,10 @@ the chest, 21% of ours with our capsules' own radii); the self-collision tests t
 capsule 1.2x (``SamplerConfig.collision_radius_scale``): 19% of wrists over the chest, largest W1,
 shoulder swing, 7.1 -> 4.6 deg, mean 2.43 -> 2.24 (the paper's settings).
 
+Whole poses: the natural partitions (``Partition.natural``) and a pose file
+(``SamplerConfig.poses``) draw every body pose at once instead of limb by limb, under the joint
+limits, collision and mattress rules of :mod:`pressurepose.pose.whole` (:func:`pose_source`).
+
 Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generator
 :func:`body_rng` ``(seed, i)``, so it does not depend on how many bodies are drawn with it, and
 ``sample_one(..., rng=body_rng(seed, i))`` returns the same body.
@@ -86,14 +90,17 @@ Randomness: body ``i`` of ``sample_bodies(..., seed)`` uses only its own generat
 from __future__ import annotations
 
 import itertools
+from functools import lru_cache
 
 import numpy as np
 
 from pressurepose.errors import BadInput
 from pressurepose.pose.config import SamplerConfig
-from pressurepose.pose.partitions import Partition, get_partition
+from pressurepose.pose.partitions import ARM_BINS, LEG_BINS, PARTITIONS, Partition, get_partition
+from pressurepose.pose.posefile import PoseFile
 from pressurepose.pose.rejection import Run
 from pressurepose.pose.samples import BodySample, SampleBatch
+from pressurepose.pose.whole import FileSource, MixtureSource, WholePoseRun, check_source
 
 GENDER_NAMES = {"f": "female", "m": "male"}
 BLOCK = 256  # bodies drawn together (vectorised); results do not depend on it
@@ -145,6 +152,37 @@ def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool =
                  None)[0]
 
 
+def pose_source(part: Partition, config: SamplerConfig):
+    """Where a body's whole pose comes from (:mod:`pressurepose.pose.whole`): the config's pose file,
+    the natural pose model for a natural partition, else None (the limb sampler). BadInput for a pose
+    file with a partition that sets limb rules, or a source without the partition's postures."""
+    if config.poses is not None:
+        if not _rolls_only(part):
+            allowed = ", ".join(n for n, p in PARTITIONS.items() if _rolls_only(p))
+            raise BadInput(f"a pose file gives the limbs, so partition {part.name}'s limb rules cannot hold; "
+                           f"use one that sets only the roll ({allowed})")
+        source = _file_source(config.poses)
+        check_source(source, part, f"pose file {config.poses.path!r}")
+        return source
+    if part.natural:
+        from pressurepose.pose.natural import natural_poses
+
+        source = MixtureSource(natural_poses())
+        check_source(source, part, "the natural pose model")
+        return source
+    return None
+
+
+def _rolls_only(p: Partition) -> bool:
+    return (p.leg_bins == tuple(range(LEG_BINS)) and p.arm_bins == tuple(range(ARM_BINS)) and not p.straight_limbs
+            and not p.hands_behind_head and not p.crossed_legs and not p.arm_height_band)
+
+
+@lru_cache(maxsize=4)
+def _file_source(poses: PoseFile) -> FileSource:
+    return FileSource(poses.poses(), poses.noise_deg)
+
+
 def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: SamplerConfig,
           seed: int | None) -> SampleBatch:
     """Draw one body per generator (an iterable), BLOCK bodies at a time (no body depends on the others)."""
@@ -154,10 +192,12 @@ def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: 
         from pressurepose.body import BodyModel
 
         body = BodyModel(GENDER_NAMES[gender])
+    source = pose_source(part, config)
     parts = []
     rngs = iter(rngs)
     while block := list(itertools.islice(rngs, BLOCK)):
-        run = Run(part, body, config, limbs_on_bed, block)
+        run = (Run(part, body, config, limbs_on_bed, block) if source is None
+               else WholePoseRun(part, body, config, limbs_on_bed, block, source))
         run.run()
         parts.append(run)
     arrays = [np.concatenate([getattr(r, name) for r in parts])

@@ -1,0 +1,282 @@
+"""Bodies whose whole pose comes from a pose source, under the sampler's rules.
+
+The limb sampler (:mod:`pressurepose.pose.rejection`) draws each limb inside its joint-limit box and
+Cartesian bin, the spine and neck held straight. A pose source gives the 23 body joints at once
+(spine, neck and head included): the natural partitions' model of real lying poses
+(:mod:`pressurepose.pose.natural`) or a user's pose file (:class:`FileSource`). The body's shape,
+roll, yaw and place on the bed are drawn as for every partition (:mod:`pressurepose.pose.root`), the
+body pose from the source for the posture class of the drawn roll
+(:func:`pressurepose.pose.posture.posture_index`). Every pose value the sampler limits (hips, knee
+flexion, collar + shoulder, elbow flexion: :mod:`pressurepose.pose.limits`) is then clipped to its
+limits (:func:`clip_to_limits`); the values it holds at 0 while drawing limbs (spine, neck, ankles,
+wrists, the hinges' other axes) stay as drawn. Clipped, not rejected: real people lie beyond the
+limits (in the SMPL fits to SLP, 85 % of the supine poses twist a hip by more than the +-33 deg
+allowed: supine legs roll outward; a fifth turn an arm beyond its limits; 11 % lie within them all),
+so rejecting kept 7 % of the supine poses drawn from the natural model and doubled their distance
+from the held-out people's (2.2 -> 4.5 cm, :mod:`pressurepose.pose.fidelity`), while clipping moves
+only the values beyond (2.2 -> 2.5 cm). The limits are the settle's too
+(:mod:`pressurepose.sim.ragdoll`), so it does not fight a clipped pose. Then, in order:
+
+``self_collision`` the limbs' capsules penetrate no other (:mod:`pressurepose.pose.collision`), at
+                   the capsules' own radii: the settle's test (:mod:`pressurepose.sim.settle`),
+                   not the limb sampler's 1.2 x (``SamplerConfig.collision_radius_scale``, which
+                   matches the public sampler's fuller capsules). A colliding pose is first nudged
+                   apart: the colliding limbs' joints (hip, knee, ankle / shoulder, elbow, wrist)
+                   are turned by Gaussian nudges, ``SEPARATE_TRIES`` per round with the sd growing
+                   by ``SEPARATE_STEP_DEG`` a round, and the free nudge that moves the joints least
+                   in the first round that has one is kept;
+``off_mattress``   unless limbs may hang (``SamplerConfig.hanging_limbs``), the elbows, wrists,
+                   hands, knees, ankles and feet lie over the mattress, ``side_margin_m`` from its
+                   sides, once the body has slid across the bed as little as brings them there (a
+                   person on their side lies back from the edge their knees point to).
+
+Why nudge: people rest their hands on their belly and chest and their legs against each other, which
+capsules (rigid, fitted round the flesh) cannot do; about 9 in 10 of the real poses collide so.
+Rejecting them keeps the tenth whose hands touch nothing: 300 held-out supine fits (subjects 61-80)
+passed through these rules lay 7.4 cm from themselves (end-joint distance) with the 1.2 x radii and
+no nudging; nudged, 4.1 cm at 1.2 x and 2.9 cm at 1.0 x (600 side-lying fits: 3.9, 2.1, 1.8 cm).
+
+A rejected pose is redrawn, and after ``off_bed_patience`` or ``collision_patience`` rejections
+the body's shape, root and place as well. Bins are not drawn: the returned bins are the ones the
+accepted limbs lie in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pressurepose.body.capsules import capsule_endpoints
+from pressurepose.body.joints import joint_index
+from pressurepose.body.lbs_numpy import forward_kinematics, rodrigues
+from pressurepose.errors import BadInput
+from pressurepose.pose.limbs import LIMBS
+from pressurepose.pose.limits import COLLAR_OF, JointLimits
+from pressurepose.pose.partitions import Partition, arm_bin, leg_bin
+from pressurepose.pose.posefile import PoseSet
+from pressurepose.pose.posture import POSTURES, posture_index
+from pressurepose.pose.rejection import Q, Run
+from pressurepose.pose.root import root_axis_angle
+from pressurepose.pose.samples import COUNTERS
+
+_COL = {name: i for i, name in enumerate(COUNTERS)}
+# separating a colliding pose: rounds of nudges of the colliding limbs' joints, sd growing per round
+SEPARATE_ROUNDS = 24
+SEPARATE_TRIES = 16
+SEPARATE_STEP_DEG = 1.5
+# the joints a limb's nudges turn (its hinge about its own axis only): hip, knee, ankle / shoulder,
+# elbow, wrist (the collar stays: it moves the shoulder's root)
+_NUDGED = tuple(tuple(limb.chain[i] for i in ((0, 1, 2) if limb.is_leg else (1, 2, 3))) for limb in LIMBS)
+MAX_POSES = 2000  # whole poses drawn for one body before the source is judged unable to give one
+_ON_BED = sorted({j for limb in LIMBS for j in limb.on_bed})
+_SHOULDERS = tuple((joint_index(COLLAR_OF[n]), joint_index(n)) for n in ("left_shoulder", "right_shoulder"))
+
+
+def _judged(limits: JointLimits) -> np.ndarray:
+    """(24, 3) True for the pose values the limits bound one by one (collar and shoulder: by their sum)."""
+    judged = limits.limited[:, None] & (limits.lower != limits.upper)
+    for c, s in _SHOULDERS:
+        judged[[c, s]] = False
+    return judged
+
+
+def within_limits(body_pose, limits: JointLimits, tol: float = 1e-9) -> np.ndarray:
+    """(N,) True where every pose value that ``limits`` bounds lies within them: body poses (N, 69)
+    (``pose[3:]``); the collar and shoulder count by their sum, which the limits bound (the sampler
+    splits it 1 : 2); values the limits hold at 0 are not judged."""
+    p = _full(body_pose)
+    ok = np.all(~_judged(limits) | ((p >= limits.lower - tol) & (p <= limits.upper + tol)), axis=(1, 2))
+    for side, (c, s) in enumerate(_SHOULDERS):
+        total = p[:, c] + p[:, s]
+        ok &= np.all((total >= limits.shoulder_lower[side] - tol) & (total <= limits.shoulder_upper[side] + tol), 1)
+    return ok
+
+
+def clip_to_limits(body_pose, limits: JointLimits) -> np.ndarray:
+    """Body poses (N, 69) with every value ``limits`` bounds moved to the nearest limit where it lies
+    beyond (a collar + shoulder sum beyond its limits: the difference shared 1 : 2 between them, as
+    the sampler splits the shoulder); the rest unchanged. Then :func:`within_limits` holds."""
+    p = _full(body_pose)
+    p = np.where(_judged(limits), np.clip(p, limits.lower, limits.upper), p)
+    for side, (c, s) in enumerate(_SHOULDERS):
+        total = p[:, c] + p[:, s]
+        gap = np.clip(total, limits.shoulder_lower[side], limits.shoulder_upper[side]) - total
+        p[:, c] += limits.shoulder_split * gap
+        p[:, s] += (1.0 - limits.shoulder_split) * gap
+    return p.reshape(len(p), -1)[:, 3:]
+
+
+def _full(body_pose) -> np.ndarray:
+    """(N, 24, 3) poses with a zero root from body poses (N, 69)."""
+    b = np.atleast_2d(np.asarray(body_pose, dtype=np.float64))
+    if b.ndim != 2 or b.shape[1] != 69:
+        raise BadInput(f"body poses have shape {b.shape}; expected (N, 69)")
+    return np.concatenate([np.zeros((len(b), 3)), b], 1).reshape(len(b), 24, 3)
+
+
+def partition_postures(part: Partition) -> tuple[str, ...]:
+    """The posture classes the partition's rolls fall in (:data:`pressurepose.pose.posture.POSTURES`)."""
+    lo, hi = part.roll
+    rolls = np.linspace(lo, hi, 721)
+    if part.either_side:
+        rolls = np.concatenate([rolls, -rolls])
+    return tuple(POSTURES[k] for k in sorted(set(posture_index(rolls).tolist())))
+
+
+class FileSource:
+    """Body poses from a pose file: a pose of the wanted posture class (by its root) drawn uniformly,
+    plus Gaussian noise of sd ``noise_deg`` degrees on each of its 69 body pose values."""
+
+    def __init__(self, poses: PoseSet, noise_deg: float):
+        self.poses, self.sd = poses, np.radians(noise_deg)
+        self.name = f"pose file {poses.source!r}"
+        classes = poses.postures
+        self.by_class = {c: np.flatnonzero(classes == c) for c in POSTURES}
+        self.groups = tuple(c for c in POSTURES if self.by_class[c].size)
+
+    def draw(self, rng: np.random.Generator, group: str) -> np.ndarray:
+        rows = self.by_class[group]
+        if not rows.size:
+            raise BadInput(f"pose file {self.poses.source!r} holds no {group} poses (by their root orientation); "
+                           f"it has {', '.join(self.groups)}")
+        out = self.poses.pose[rows[rng.integers(rows.size)], 3:].copy()
+        if self.sd > 0:
+            out += rng.normal(0.0, self.sd, out.shape)
+        return out
+
+
+class MixtureSource:
+    """Body poses from a :class:`~pressurepose.pose.natural.NaturalPoses` model."""
+
+    def __init__(self, model):
+        self.model = model
+        self.groups = tuple(model.mixtures)
+        self.name = "the natural pose model"
+
+    def draw(self, rng: np.random.Generator, group: str) -> np.ndarray:
+        return self.model.draw(rng, group)
+
+
+def check_source(source, part: Partition, what: str) -> None:
+    """BadInput unless ``source`` has poses of every posture class the partition's rolls fall in."""
+    lacking = [c for c in partition_postures(part) if c not in source.groups]
+    if lacking:
+        raise BadInput(f"{what} has no {', '.join(lacking)} poses, which partition {part.name} lies bodies in; "
+                       f"it has {', '.join(source.groups) or 'none'}")
+
+
+class WholePoseRun(Run):
+    """A :class:`~pressurepose.pose.rejection.Run` whose bodies take whole poses from ``source``
+    (see the module docstring)."""
+
+    def __init__(self, part: Partition, body, config, limbs_on_bed: bool, rngs, source):
+        self.source = source
+        self.placed_x = np.zeros(len(rngs))
+        super().__init__(part, body, config, limbs_on_bed, rngs)
+        self.body_pose = np.zeros((len(rngs), 69))
+        self.misses = np.zeros(len(rngs), dtype=np.int64)
+        self.drawn = np.zeros(len(rngs), dtype=np.int64)
+
+    def _draw_body(self, i: int) -> None:
+        super()._draw_body(i)
+        self.col_radius[i] = self.cap_radius[i]  # the capsules' own radii (see the module docstring)
+        self.placed_x[i] = self.pelvis[i, 0]  # where the placement put it, before any slide across
+
+    def _assemble_pose(self, idx: np.ndarray) -> np.ndarray:
+        pose = np.zeros((len(idx), 72))
+        pose[:, :3] = root_axis_angle(self.W[idx])
+        pose[:, 3:] = self.body_pose[idx]
+        return pose
+
+    def _draw_poses(self, idx: np.ndarray) -> None:
+        """A body pose for each of bodies idx, from the source for its roll's posture class, clipped to
+        the joint limits."""
+        self.drawn[idx] += 1
+        stuck = idx[self.drawn[idx] > MAX_POSES]
+        if stuck.size:
+            c = self.counts[stuck[0]]
+            raise BadInput(f"{MAX_POSES} poses drawn for one body of partition {self.part.name} from "
+                           f"{getattr(self.source, 'name', 'the pose source')}, none kept: {c[_COL['off_mattress']]} "
+                           f"off the mattress, {c[_COL['self_collision']]} colliding; do its poses fit on this bed?")
+        drawn = [self.source.draw(self.rngs[i], POSTURES[int(posture_index(self.roll[i]))]) for i in idx]
+        self.body_pose[idx] = clip_to_limits(np.array(drawn), self.limits)
+
+    def _posed(self, i: int, body_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joints (K, 24, 3) and capsule ends (K, 20, 2, 3), bed frame, of body i with K body poses (K, 69)."""
+        pose = np.zeros((len(body_poses), 72))
+        pose[:, :3] = root_axis_angle(self.W[[i]])
+        pose[:, 3:] = body_poses
+        rest = np.broadcast_to(self.rest[i], (len(pose), 24, 3))
+        G = forward_kinematics(rodrigues(pose.reshape(-1, 24, 3)), rest, self.body.parents)
+        pos = G[..., :3, 3] @ Q.T + (self.pelvis[i] - self.rest[i, 0] @ Q.T)
+        return pos, capsule_endpoints(self.caps[i], pos, Q @ G[..., :3, :3] @ Q.T)
+
+    def _separate(self, idx: np.ndarray) -> None:
+        """Nudge the colliding limbs of bodies idx apart (see the module docstring); a body none of
+        whose nudges is free keeps its pose (and :meth:`_check` rejects it)."""
+        for i in idx:
+            base = self.body_pose[i]
+            joints, ends = self._posed(i, base[None])
+            hit = self.collision.contacts(ends[0], self.col_radius[i])
+            if not hit:
+                continue
+            caps = {c for pair in hit for c in pair}
+            mask = np.zeros((24, 3), dtype=bool)
+            for li, limb in enumerate(LIMBS):
+                if caps & set(limb.capsules):
+                    for j in _NUDGED[li]:
+                        axis = self.limits.hinge_axis[j]
+                        mask[j] = True if axis < 0 else np.arange(3) == axis
+            mask = mask[1:].reshape(69)
+            for r in range(1, SEPARATE_ROUNDS + 1):
+                noise = self.rngs[i].standard_normal((SEPARATE_TRIES, 69))
+                tries = clip_to_limits(base + mask * np.radians(SEPARATE_STEP_DEG * r) * noise, self.limits)
+                pos, ends = self._posed(i, tries)
+                moved = np.linalg.norm(pos - joints, axis=-1).sum(axis=1)
+                free = next((k for k in np.argsort(moved, kind="stable")
+                             if not self.collision.contacts(ends[k], self.col_radius[i])), None)
+                if free is not None:
+                    self.body_pose[i] = tries[free]
+                    break
+
+    def _over_mattress(self, idx: np.ndarray) -> np.ndarray:
+        """(len(idx),) True where the limbs' on-bed joints lie over the mattress (see module doc),
+        after sliding each body across the bed as little as brings them within its sides."""
+        self.pelvis[idx, 0] = self.placed_x[idx]
+        pose = self._assemble_pose(idx)
+        G = forward_kinematics(rodrigues(pose.reshape(-1, 24, 3)), self.rest[idx], self.body.parents)
+        pos = G[..., :3, 3] @ Q.T + (self.pelvis[idx] - self.rest[idx, 0] @ Q.T)[:, None]
+        x0, x1, y0, y1 = self.cfg.mattress
+        if not self.cfg.hanging_limbs:
+            x0, x1 = x0 + self.cfg.side_margin_m, x1 - self.cfg.side_margin_m
+        xy = pos[:, _ON_BED, :2]
+        lo, hi = xy[..., 0].min(axis=1), xy[..., 0].max(axis=1)
+        fits = hi - lo < x1 - x0
+        slide = np.where(fits, np.maximum(x0 - lo, 0.0) + np.minimum(x1 - hi, 0.0), 0.0)
+        self.pelvis[idx, 0] += slide
+        return fits & np.all((xy[..., 1] > y0) & (xy[..., 1] < y1), axis=1)
+
+    def run(self) -> None:
+        pending = np.arange(len(self.rngs))
+        while pending.size:
+            self._draw_poses(pending)
+            self._separate(pending)
+            active = pending
+            if self.on_bed:
+                over = self._over_mattress(pending)
+                for i in pending[~over]:
+                    self.counts[i, _COL["off_mattress"]] += 1
+                    self.misses[i] += 1
+                    if self.misses[i] >= self.cfg.off_bed_patience:
+                        self.misses[i] = 0
+                        self._draw_body(i)
+                        self.counts[i, _COL["bodies_redrawn"]] += 1
+                active = pending[over]
+            done = active[self._check(active)] if active.size else active
+            pending = pending[~np.isin(pending, done)]
+        self._bins_reached()
+
+    def _bins_reached(self) -> None:
+        """The bins the accepted limbs' distal joints lie in, along the bed (as the limb sampler counts)."""
+        for li, limb in enumerate(LIMBS):
+            footward = self.joints[:, limb.distal, 1] - self.joints[:, limb.proximal, 1]
+            self.bins[:, li] = (leg_bin if limb.is_leg else arm_bin)(footward, self.lengths[:, li])
