@@ -1,0 +1,303 @@
+"""Body sites where pressure injuries form, and the pressure each carries on a mat.
+
+The sites are the bony prominences a clinician checks (NPIAP / EPUAP pressure-injury guideline):
+lying supine the occiput, scapulae, elbows, sacrum and heels; on the side the ear, shoulder,
+greater trochanter, knee and ankle (malleolus) of the side lain on. :data:`SITES` names them;
+``other`` is the rest of the body.
+
+Every vertex of a body model gets one site (:func:`vertex_sites`), from the model's own arrays, so
+the shipped open models and SMPL-format files (any topology) both work. The rules work on the mean
+shape at rest (SMPL's y-up model frame: +y toward the head, +z forward, +x the body's left), with
+each vertex's *region* the joint with the largest skinning weight, and lengths scaled by the rest
+height over 1.65 m (``s``). In order, the first rule that holds wins:
+
+===================== =====================================================================
+site                  rule
+===================== =====================================================================
+``head``              region head or neck, above the neck joint less 2 s cm (occiput; the ear on the side)
+``left_heel``         region ankle or foot, more than 2 s cm below the ankle along the leg and
+                      behind a plane 3 s cm in front of the ankle joint (back and bottom of the heel)
+``left_ankle``        region knee, ankle or foot within 5 s cm of the ankle along the leg (the malleoli)
+``left_knee``         region hip or knee within 7 s cm of the knee along the leg
+``left_elbow``        region shoulder, elbow or wrist within 7 s cm of the elbow along the arm
+``left_trochanter``   region pelvis, spine1 or hip, from 12 s cm below to 6 s cm above the hip
+                      joints, in the outer half between the hip joint and the side of the body
+``sacrum``            region pelvis, spine1, spine2 or hip, from 15 s cm below the hip joints
+                      to 8 s cm above spine1, behind the pelvis joint (sacrum and buttocks)
+``left_shoulder``     within 11 s cm of the shoulder joint, outside it (|x| >= the joint's)
+``scapulae``          region spine2, spine3, collar or shoulder, from 12 s cm below spine3 to
+                      4 s cm above the shoulders, behind spine3, between the shoulder joints
+``other``             everything else (mid back, thighs, calves, arms, hands, front of the body)
+===================== =====================================================================
+
+(right sites mirror the left ones). The site maps of the shipped models are drawn in
+``docs/monitoring.md``.
+
+:func:`taxel_sites` gives each loaded taxel of a pressure image the site of the body lying on it
+(the lowest vertex over the taxel, else the nearest lowest vertex) and :func:`site_loads` the
+peak and mean pressure, contact area and share of the load of each site; :func:`vertex_pressure`
+puts the pressure on the body's surface. Pure numpy over arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pressurepose.body.joints import JOINT_NAMES
+from pressurepose.body.lbs_numpy import shaped_rest
+from pressurepose.body.smpl_io import SmplArrays
+from pressurepose.errors import BadInput
+from pressurepose.mat import MatSpec
+
+SITES: tuple[str, ...] = (
+    "head", "scapulae", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "sacrum",
+    "left_trochanter", "right_trochanter", "left_knee", "right_knee", "left_ankle", "right_ankle",
+    "left_heel", "right_heel", "other",
+)
+OTHER = SITES.index("other")
+NO_SITE = -1  # a taxel nothing is assigned to: no load on it
+# sites that carry the load lying on the back and lying on the side (NPIAP / EPUAP guideline)
+SUPINE_SITES: tuple[str, ...] = ("head", "scapulae", "left_elbow", "right_elbow", "sacrum", "left_heel", "right_heel")
+LATERAL_SITES: tuple[str, ...] = ("head", "left_shoulder", "right_shoulder", "left_trochanter", "right_trochanter",
+                                  "left_knee", "right_knee", "left_ankle", "right_ankle")
+REFERENCE_HEIGHT_M = 1.65
+
+
+def site_index(name: str) -> int:
+    """Index into :data:`SITES` of a site name; BadInput naming the known ones."""
+    try:
+        return SITES.index(name)
+    except ValueError:
+        raise BadInput(f"unknown body site {name!r}; expected one of {', '.join(SITES)}") from None
+
+
+def vertex_sites(model) -> np.ndarray:
+    """(V,) int8 index into :data:`SITES` of every vertex of a body model (a
+    :class:`~pressurepose.body.BodyModel` or :class:`SmplArrays`), by the rules of the module doc."""
+    arrays = getattr(model, "arrays", model)
+    if not isinstance(arrays, SmplArrays):
+        raise BadInput(f"model is {type(model).__name__}; expected a BodyModel or SmplArrays")
+    if arrays.num_joints != len(JOINT_NAMES):
+        raise BadInput(f"the body model has {arrays.num_joints} joints; body sites need SMPL's {len(JOINT_NAMES)}")
+    v, J = shaped_rest(arrays, np.zeros((1, 1)))
+    v, J = v[0], J[0]
+    region = np.argmax(arrays.weights, axis=1)
+    s = (v[:, 1].max() - v[:, 1].min()) / REFERENCE_HEIGHT_M
+    j = {n: J[i] for i, n in enumerate(JOINT_NAMES)}
+    ji = {n: i for i, n in enumerate(JOINT_NAMES)}
+    out = np.full(len(v), -1, dtype=np.int64)
+
+    def regions(*names):
+        return np.isin(region, [ji[n] for n in names])
+
+    def claim(name, mask):
+        free = (out < 0) & mask
+        out[free] = SITES.index(name)
+
+    def along(a, b, p):
+        """Signed distance (V,) of the vertices from point p along the unit direction a -> b."""
+        u = (b - a) / np.linalg.norm(b - a)
+        return (v - p) @ u
+
+    claim("head", regions("head", "neck") & (v[:, 1] > j["neck"][1] - 0.02 * s))
+    for side in ("left", "right"):
+        knee, ankle, hip = j[f"{side}_knee"], j[f"{side}_ankle"], j[f"{side}_hip"]
+        down = along(knee, ankle, ankle)  # + below the ankle along the shin
+        claim(f"{side}_heel", regions(f"{side}_ankle", f"{side}_foot") & (down > 0.02 * s)
+              & (v[:, 2] < ankle[2] + 0.03 * s))
+        claim(f"{side}_ankle", regions(f"{side}_knee", f"{side}_ankle", f"{side}_foot") & (np.abs(down) < 0.05 * s))
+        claim(f"{side}_knee", regions(f"{side}_hip", f"{side}_knee") & (np.abs(along(hip, ankle, knee)) < 0.07 * s))
+        shoulder, elbow, wrist = j[f"{side}_shoulder"], j[f"{side}_elbow"], j[f"{side}_wrist"]
+        claim(f"{side}_elbow", regions(f"{side}_shoulder", f"{side}_elbow", f"{side}_wrist")
+              & (np.abs(along(shoulder, wrist, elbow)) < 0.07 * s))
+    hip_y = 0.5 * (j["left_hip"][1] + j["right_hip"][1])
+    hips = regions("pelvis", "spine1", "left_hip", "right_hip")
+    band = hips & (v[:, 1] > hip_y - 0.12 * s) & (v[:, 1] < hip_y + 0.06 * s)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        inner = sign * j[f"{side}_hip"][0]
+        outer = (sign * v[band, 0]).max() if band.any() else inner
+        claim(f"{side}_trochanter", band & (sign * v[:, 0] > inner + 0.5 * (outer - inner)))
+    claim("sacrum", regions("pelvis", "spine1", "spine2", "left_hip", "right_hip") & (v[:, 1] > hip_y - 0.15 * s)
+          & (v[:, 1] < j["spine1"][1] + 0.08 * s) & (v[:, 2] < j["pelvis"][2]))
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        shoulder = j[f"{side}_shoulder"]
+        claim(f"{side}_shoulder", (np.linalg.norm(v - shoulder, axis=1) < 0.11 * s)
+              & (sign * v[:, 0] >= sign * shoulder[0]))
+    shoulder_y = 0.5 * (j["left_shoulder"][1] + j["right_shoulder"][1])
+    half = 0.5 * abs(j["left_shoulder"][0] - j["right_shoulder"][0])
+    claim("scapulae", regions("spine2", "spine3", "left_collar", "right_collar", "left_shoulder", "right_shoulder")
+          & (v[:, 1] > j["spine3"][1] - 0.12 * s) & (v[:, 1] < shoulder_y + 0.04 * s)
+          & (v[:, 2] < j["spine3"][2]) & (np.abs(v[:, 0]) < half))
+    out[out < 0] = OTHER
+    return out.astype(np.int8)
+
+
+# ---------------------------------------------------------------------------------------- taxels
+def _check_images(pressure, what: str = "pressure") -> np.ndarray:
+    p = np.asarray(pressure, dtype=np.float64)
+    if p.ndim == 2:
+        p = p[None]
+    if p.ndim != 3 or not np.all(np.isfinite(p)):
+        raise BadInput(f"{what} has shape {np.shape(pressure)}; expected finite (B, R, C) or (R, C) mmHg")
+    return p
+
+
+def taxel_sites(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> np.ndarray:
+    """(B, R, C) int8 site (index into :data:`SITES`) of every loaded taxel, ``NO_SITE`` (-1) elsewhere.
+
+    pressure (B, R, C) mmHg on ``mat``; vertices (B, V, 3) the bodies lying on it (bed frame, m:
+    taxel (r, c) covers x in [c, c+1) pitch_col_m, y in [r, r+1) pitch_row_m); vertex_site (V,) from
+    :func:`vertex_sites`. A taxel is loaded when it reads more than ``min_mmhg``; it takes the site
+    of the lowest vertex over it, or where no vertex lies over it, of the nearest (in x, y) vertex
+    that is the lowest over its own taxel.
+    """
+    from scipy.spatial import cKDTree
+
+    p, verts, vsite = _check_inputs(pressure, vertices, vertex_site, mat)
+    B, R, C = p.shape
+    out = np.full((B, R, C), NO_SITE, dtype=np.int8)
+    centres = np.stack(np.meshgrid((np.arange(C) + 0.5) * mat.pitch_col_m, (np.arange(R) + 0.5) * mat.pitch_row_m),
+                       -1).reshape(-1, 2)
+    for b in range(B):
+        loaded = np.flatnonzero(p[b].ravel() > min_mmhg)
+        if not len(loaded):
+            continue
+        cell, low = lowest_vertices(verts[b], mat)
+        site = np.full(R * C, NO_SITE, dtype=np.int64)
+        site[cell] = vsite[low]
+        missing = loaded[site[loaded] < 0]
+        if len(missing) and len(low):
+            _, k = cKDTree(verts[b, low, :2]).query(centres[missing])
+            site[missing] = vsite[low[k]]
+        out[b].ravel()[loaded] = site[loaded]
+    return out
+
+
+def lowest_vertices(vertices: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest vertex over each taxel a vertex of ``vertices`` (V, 3) lies over: (flat taxel
+    indices r * C + c (K,), vertex indices (K,)), one per covered taxel."""
+    row = np.floor(vertices[:, 1] / mat.pitch_row_m).astype(np.int64)
+    col = np.floor(vertices[:, 0] / mat.pitch_col_m).astype(np.int64)
+    inside = np.flatnonzero((row >= 0) & (row < mat.rows) & (col >= 0) & (col < mat.cols))
+    flat = row[inside] * mat.cols + col[inside]
+    order = np.lexsort((vertices[inside, 2], flat))
+    flat, idx = flat[order], inside[order]
+    first = np.r_[True, flat[1:] != flat[:-1]]
+    return flat[first], idx[first]
+
+
+def _check_inputs(pressure, vertices, vertex_site, mat):
+    if not isinstance(mat, MatSpec):
+        raise BadInput(f"mat is {type(mat).__name__}; expected a pressurepose.mat.MatSpec")
+    p = _check_images(pressure)
+    if p.shape[1:] != mat.shape:
+        raise BadInput(f"pressure has shape {p.shape[1:]} per image; the mat {mat.name} is {mat.rows} x {mat.cols}")
+    verts = np.asarray(vertices, dtype=np.float64)
+    if verts.ndim == 2:
+        verts = verts[None]
+    if verts.ndim != 3 or verts.shape[-1] != 3 or len(verts) != len(p) or not np.all(np.isfinite(verts)):
+        raise BadInput(f"vertices has shape {np.shape(vertices)}; expected finite ({len(p)}, V, 3) metres, one "
+                       f"body per pressure image")
+    vsite = np.asarray(vertex_site)
+    if vsite.shape != (verts.shape[1],) or vsite.dtype.kind not in "iu" or (
+            len(vsite) and (vsite.min() < 0 or vsite.max() >= len(SITES))):
+        raise BadInput(f"vertex_site has shape {vsite.shape} and dtype {vsite.dtype}; expected ({verts.shape[1]},) "
+                       f"indices into SITES")
+    return p, verts, vsite.astype(np.int64)
+
+
+# ---------------------------------------------------------------------------------------- loads
+@dataclass(frozen=True)
+class SiteLoads:
+    """Per-site load of B pressure images, each array (B, S) over :data:`SITES`.
+
+    peak_mmhg, mean_mmhg: highest and mean reading of the site's loaded taxels (0 without any);
+    area_cm2: their area; share: the site's part of the image's total load (sum of pressure x area,
+    i.e. force), summing to 1 over the sites of an image with any load (0 for an empty image);
+    taxel_site (B, R, C) int8: each taxel's site (``NO_SITE`` where unloaded).
+    """
+
+    peak_mmhg: np.ndarray
+    mean_mmhg: np.ndarray
+    area_cm2: np.ndarray
+    share: np.ndarray
+    taxel_site: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.share.shape[0])
+
+    def most_loaded(self) -> list[str]:
+        """The site carrying the largest share of each image ('' for an empty image)."""
+        return [SITES[int(np.argmax(s))] if s.max() > 0 else "" for s in self.share]
+
+    def to_records(self) -> list[dict]:
+        """One JSON-ready dict per image: {site: {peak_mmhg, mean_mmhg, area_cm2, share}} for every site."""
+        return [{name: {"peak_mmhg": round(float(self.peak_mmhg[b, k]), 3),
+                        "mean_mmhg": round(float(self.mean_mmhg[b, k]), 3),
+                        "area_cm2": round(float(self.area_cm2[b, k]), 3),
+                        "share": round(float(self.share[b, k]), 5)} for k, name in enumerate(SITES)}
+                for b in range(len(self))]
+
+
+def site_stats(pressure, taxel_site, mat: MatSpec) -> SiteLoads:
+    """Per-site load of pressure images (B, R, C) mmHg on ``mat`` whose taxels carry the sites
+    ``taxel_site`` (B, R, C) (indices into :data:`SITES`; ``NO_SITE`` for unloaded taxels, whose
+    readings are left out)."""
+    if not isinstance(mat, MatSpec):
+        raise BadInput(f"mat is {type(mat).__name__}; expected a pressurepose.mat.MatSpec")
+    p = _check_images(pressure)
+    t = np.asarray(taxel_site)
+    if t.ndim == 2:
+        t = t[None]
+    if t.shape != p.shape or p.shape[1:] != mat.shape or t.dtype.kind not in "iu":
+        raise BadInput(f"pressure {p.shape} and taxel_site {np.shape(taxel_site)} must be integer sites and readings "
+                       f"of one shape (B, {mat.rows}, {mat.cols})")
+    if t.size and (t.min() < NO_SITE or t.max() >= len(SITES)):
+        raise BadInput(f"taxel_site holds {t.min()}..{t.max()}; expected -1 (no site) or indices into SITES")
+    B, S = len(p), len(SITES)
+    on = t >= 0
+    img = np.broadcast_to(np.arange(B)[:, None, None], t.shape)[on]
+    key = img * S + t[on].astype(np.int64)
+    vals = p[on]
+    count = np.bincount(key, minlength=B * S).reshape(B, S)
+    total = np.bincount(key, weights=vals, minlength=B * S).reshape(B, S)
+    peak = np.zeros(B * S)
+    np.maximum.at(peak, key, vals)
+    whole = total.sum(1, keepdims=True)
+    return SiteLoads(peak_mmhg=peak.reshape(B, S), mean_mmhg=np.where(count > 0, total / np.maximum(count, 1), 0.0),
+                     area_cm2=count * mat.taxel_area_m2 * 1e4,
+                     share=np.where(whole > 0, total / np.where(whole > 0, whole, 1.0), 0.0),
+                     taxel_site=t.astype(np.int8))
+
+
+def site_loads(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> SiteLoads:
+    """Per-site load of pressure images (B, R, C) mmHg under bodies ``vertices`` (B, V, 3) with
+    sites ``vertex_site`` (V,): :func:`taxel_sites` then :func:`site_stats`."""
+    return site_stats(pressure, taxel_sites(pressure, vertices, vertex_site, mat, min_mmhg), mat)
+
+
+def vertex_pressure(pressure, vertices, mat: MatSpec, reach_m: float = 0.02) -> np.ndarray:
+    """(B, V) mmHg on the body's surface: each vertex reads the taxel under it when it lies within
+    ``reach_m`` of the lowest vertex over that taxel (the skin on the mat), else 0; vertices beyond
+    the mat read 0. pressure (B, R, C) mmHg; vertices (B, V, 3) bed frame, m."""
+    p = _check_images(pressure)
+    verts = np.asarray(vertices, dtype=np.float64)
+    if verts.ndim == 2:
+        verts = verts[None]
+    if verts.ndim != 3 or verts.shape[-1] != 3 or len(verts) != len(p) or p.shape[1:] != mat.shape:
+        raise BadInput(f"pressure {p.shape} and vertices {np.shape(vertices)} must be B images on the mat "
+                       f"({mat.rows}, {mat.cols}) and B bodies (V, 3)")
+    out = np.zeros(verts.shape[:2])
+    for b in range(len(p)):
+        row = np.floor(verts[b, :, 1] / mat.pitch_row_m).astype(np.int64)
+        col = np.floor(verts[b, :, 0] / mat.pitch_col_m).astype(np.int64)
+        inside = (row >= 0) & (row < mat.rows) & (col >= 0) & (col < mat.cols)
+        flat = np.where(inside, row * mat.cols + col, 0)
+        cell, low = lowest_vertices(verts[b], mat)
+        floor = np.full(mat.rows * mat.cols, np.inf)
+        floor[cell] = verts[b, low, 2]
+        near = inside & (verts[b, :, 2] <= floor[flat] + reach_m)
+        out[b, near] = p[b].ravel()[flat[near]]
+    return out
