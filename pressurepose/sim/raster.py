@@ -6,7 +6,8 @@ import numpy as np
 
 
 def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[float, float],
-                  cell_xy: tuple[float, float], shape: tuple[int, int], floor: float = -np.inf) -> np.ndarray:
+                  cell_xy: tuple[float, float], shape: tuple[int, int], floor: float = -np.inf,
+                  return_vertex: bool = False):
     """Lowest z of the mesh above the centre of every grid cell, ignoring points below ``floor``.
 
     vertices (V, 3) and faces (F, 3) in metres; the grid has ``shape = (ny, nx)`` cells of size
@@ -15,10 +16,20 @@ def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[floa
     lies over the centre. Each triangle is interpolated linearly at the cell centres inside its
     projection (edges included), and the lowest value at or above ``floor`` (m) wins, so for a
     closed mesh the result is its lower surface sampled at the cell centres.
+
+    ``return_vertex``: also return (ny, nx) int64, the vertex of the lowest triangle nearest each
+    cell centre (largest barycentric weight; -1 where no triangle): which point of the surface lies
+    over the cell.
     """
     ny, nx = shape
     dx, dy = cell_xy
     out = np.full(ny * nx, np.inf)
+    nearest = np.full(ny * nx, -1, dtype=np.int64)
+
+    def result():
+        heights = out.reshape(ny, nx)
+        return (heights, nearest.reshape(ny, nx)) if return_vertex else heights
+
     tri = vertices[faces]  # (F, 3, 3)
     # affine map from (x, y) to barycentric (l1, l2) per triangle
     x0, y0 = tri[:, 0, 0], tri[:, 0, 1]
@@ -29,8 +40,9 @@ def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[floa
     span = np.maximum(np.abs(e1).max(1), np.abs(e2).max(1))
     keep = np.abs(det) > 1e-12 * np.maximum(span, 1e-12) ** 2
     tri, x0, y0, e1, e2, det = tri[keep], x0[keep], y0[keep], e1[keep], e2[keep], det[keep]
+    kept_faces = faces[keep]
     if len(tri) == 0:
-        return out.reshape(ny, nx)
+        return result()
     # index ranges of the cell centres inside each triangle's bounding box
     lo = tri[:, :, :2].min(1)
     hi = tri[:, :, :2].max(1)
@@ -43,7 +55,7 @@ def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[floa
     count = wi * wj
     total = int(count.sum())
     if total == 0:
-        return out.reshape(ny, nx)
+        return result()
     t = np.repeat(np.arange(len(tri)), count)
     k = np.arange(total) - np.repeat(np.cumsum(count) - count, count)
     ii = i0[t] + k % wi[t]
@@ -58,5 +70,10 @@ def lower_surface(vertices: np.ndarray, faces: np.ndarray, origin_xy: tuple[floa
     t, l1, l2 = t[inside], l1[inside], l2[inside]
     z = tri[t, 0, 2] + l1 * (tri[t, 1, 2] - tri[t, 0, 2]) + l2 * (tri[t, 2, 2] - tri[t, 0, 2])
     above = z >= floor
-    np.minimum.at(out, (jj[inside] * nx + ii[inside])[above], z[above])
-    return out.reshape(ny, nx)
+    flat = (jj[inside] * nx + ii[inside])[above]
+    np.minimum.at(out, flat, z[above])
+    if return_vertex:
+        low = z[above] == out[flat]  # the candidates that are the lowest over their cell
+        w = np.stack([1.0 - l1 - l2, l1, l2], axis=1)[above][low]
+        nearest[flat[low]] = kept_faces[t[above][low], np.argmax(w, axis=1)]
+    return result()
