@@ -46,8 +46,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.body.lbs_numpy import shaped_rest
-from pressurepose.body.smpl_io import SmplArrays
 from pressurepose.errors import BadInput
 from pressurepose.mat import MatSpec
 
@@ -75,15 +73,18 @@ def site_index(name: str) -> int:
 
 def vertex_sites(model) -> np.ndarray:
     """(V,) int8 index into :data:`SITES` of every vertex of a body model (a
-    :class:`~pressurepose.body.BodyModel` or :class:`SmplArrays`), by the rules of the module doc."""
+    :class:`~pressurepose.body.BodyModel`, :class:`SmplArrays` or the torch
+    :class:`~pressurepose.body.lbs_torch.BodyLayer`), by the rules of the module doc."""
     arrays = getattr(model, "arrays", model)
-    if not isinstance(arrays, SmplArrays):
-        raise BadInput(f"model is {type(model).__name__}; expected a BodyModel or SmplArrays")
-    if arrays.num_joints != len(JOINT_NAMES):
-        raise BadInput(f"the body model has {arrays.num_joints} joints; body sites need SMPL's {len(JOINT_NAMES)}")
-    v, J = shaped_rest(arrays, np.zeros((1, 1)))
-    v, J = v[0], J[0]
-    region = np.argmax(arrays.weights, axis=1)
+    try:
+        v, weights, jreg = (np.asarray(_numpy(getattr(arrays, k)), dtype=np.float64)
+                            for k in ("v_template", "weights", "J_regressor"))
+    except AttributeError:
+        raise BadInput(f"model is {type(model).__name__}; expected a BodyModel, SmplArrays or BodyLayer") from None
+    if jreg.shape[0] != len(JOINT_NAMES) or weights.shape != (len(v), len(JOINT_NAMES)):
+        raise BadInput(f"the body model has {jreg.shape[0]} joints; body sites need SMPL's {len(JOINT_NAMES)}")
+    J = jreg @ v  # the rest joints of the mean shape
+    region = np.argmax(weights, axis=1)
     s = (v[:, 1].max() - v[:, 1].min()) / REFERENCE_HEIGHT_M
     j = {n: J[i] for i, n in enumerate(JOINT_NAMES)}
     ji = {n: i for i, n in enumerate(JOINT_NAMES)}
@@ -134,6 +135,10 @@ def vertex_sites(model) -> np.ndarray:
     return out.astype(np.int8)
 
 
+def _numpy(x):
+    return x.detach().cpu().numpy() if hasattr(x, "detach") else x
+
+
 # ---------------------------------------------------------------------------------------- taxels
 def _check_images(pressure, what: str = "pressure") -> np.ndarray:
     p = np.asarray(pressure, dtype=np.float64)
@@ -149,30 +154,38 @@ def taxel_sites(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float =
 
     pressure (B, R, C) mmHg on ``mat``; vertices (B, V, 3) the bodies lying on it (bed frame, m:
     taxel (r, c) covers x in [c, c+1) pitch_col_m, y in [r, r+1) pitch_row_m); vertex_site (V,) from
-    :func:`vertex_sites`. A taxel is loaded when it reads more than ``min_mmhg``; it takes the site
-    of the lowest vertex over it, or where no vertex lies over it, of the nearest (in x, y) vertex
-    that is the lowest over its own taxel.
+    :func:`vertex_sites` (or (B, V), one per body). A taxel is loaded when it reads more than ``min_mmhg``; it takes its site
+    in :func:`body_site_map`.
     """
+    p, verts, vsite = _check_inputs(pressure, vertices, vertex_site, mat)
+    return np.where(p > min_mmhg, body_site_map(verts, vsite, mat), NO_SITE).astype(np.int8)
+
+
+def body_site_map(vertices, vertex_site, mat: MatSpec) -> np.ndarray:
+    """(B, R, C) int8: the site of the body over every taxel of ``mat``, loaded or not: the site of
+    the lowest vertex over the taxel, or where no vertex lies over it, of the nearest (in x, y)
+    vertex that is the lowest over its own taxel (``NO_SITE`` only for a body with no vertex over
+    the mat). vertices (B, V, 3) bed frame, m; vertex_site (V,) from :func:`vertex_sites`, or (B, V)
+    one per body (bodies of different models with one topology)."""
     from scipy.spatial import cKDTree
 
-    p, verts, vsite = _check_inputs(pressure, vertices, vertex_site, mat)
-    B, R, C = p.shape
-    out = np.full((B, R, C), NO_SITE, dtype=np.int8)
+    verts = np.asarray(vertices, dtype=np.float64)
+    verts = verts[None] if verts.ndim == 2 else verts
+    vsite = np.broadcast_to(np.asarray(vertex_site, dtype=np.int64), verts.shape[:2])
+    R, C = mat.shape
+    out = np.full((len(verts), R * C), NO_SITE, dtype=np.int8)
     centres = np.stack(np.meshgrid((np.arange(C) + 0.5) * mat.pitch_col_m, (np.arange(R) + 0.5) * mat.pitch_row_m),
                        -1).reshape(-1, 2)
-    for b in range(B):
-        loaded = np.flatnonzero(p[b].ravel() > min_mmhg)
-        if not len(loaded):
-            continue
+    for b in range(len(verts)):
         cell, low = lowest_vertices(verts[b], mat)
-        site = np.full(R * C, NO_SITE, dtype=np.int64)
-        site[cell] = vsite[low]
-        missing = loaded[site[loaded] < 0]
-        if len(missing) and len(low):
+        if not len(low):
+            continue
+        out[b, cell] = vsite[b, low]
+        missing = np.flatnonzero(out[b] < 0)
+        if len(missing):
             _, k = cKDTree(verts[b, low, :2]).query(centres[missing])
-            site[missing] = vsite[low[k]]
-        out[b].ravel()[loaded] = site[loaded]
-    return out
+            out[b, missing] = vsite[b, low[k]]
+    return out.reshape(len(verts), R, C)
 
 
 def lowest_vertices(vertices: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -201,10 +214,10 @@ def _check_inputs(pressure, vertices, vertex_site, mat):
         raise BadInput(f"vertices has shape {np.shape(vertices)}; expected finite ({len(p)}, V, 3) metres, one "
                        f"body per pressure image")
     vsite = np.asarray(vertex_site)
-    if vsite.shape != (verts.shape[1],) or vsite.dtype.kind not in "iu" or (
-            len(vsite) and (vsite.min() < 0 or vsite.max() >= len(SITES))):
+    if vsite.shape not in ((verts.shape[1],), verts.shape[:2]) or vsite.dtype.kind not in "iu" or (
+            vsite.size and (vsite.min() < 0 or vsite.max() >= len(SITES))):
         raise BadInput(f"vertex_site has shape {vsite.shape} and dtype {vsite.dtype}; expected ({verts.shape[1]},) "
-                       f"indices into SITES")
+                       f"or ({len(verts)}, {verts.shape[1]}) indices into SITES")
     return p, verts, vsite.astype(np.int64)
 
 
@@ -274,7 +287,7 @@ def site_stats(pressure, taxel_site, mat: MatSpec) -> SiteLoads:
 
 def site_loads(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> SiteLoads:
     """Per-site load of pressure images (B, R, C) mmHg under bodies ``vertices`` (B, V, 3) with
-    sites ``vertex_site`` (V,): :func:`taxel_sites` then :func:`site_stats`."""
+    sites ``vertex_site`` (V,) or (B, V): :func:`taxel_sites` then :func:`site_stats`."""
     return site_stats(pressure, taxel_sites(pressure, vertices, vertex_site, mat, min_mmhg), mat)
 
 

@@ -9,6 +9,7 @@ from pressurepose.body.sites import (
     NO_SITE,
     OTHER,
     SITES,
+    body_site_map,
     lowest_vertices,
     site_index,
     site_loads,
@@ -127,8 +128,23 @@ def test_every_site_is_on_the_shipped_models_and_mirrors(gender):
     assert v[s == site_index("sacrum"), 2].max() < 0 and v[s == site_index("scapulae"), 2].max() < 0.02  # the back
 
 
+def test_site_map_covers_every_taxel_and_takes_one_site_list_per_body():
+    head, sacrum = site_index("head"), site_index("sacrum")
+    verts = np.array([centre(0, 0), centre(3, 4)])
+    maps = body_site_map(np.stack([verts, verts]), np.array([[head, sacrum], [sacrum, sacrum]]), MAT)
+    assert maps.shape == (2, 4, 5) and maps[0, 0, 1] == head and maps[0, 3, 3] == sacrum
+    assert (maps[1] == sacrum).all()
+    pressure = np.zeros((2, 4, 5))
+    pressure[:, 0, 1] = 10.0
+    t = taxel_sites(pressure, np.stack([verts, verts]), np.array([[head, sacrum], [sacrum, sacrum]]), MAT)
+    assert t[0, 0, 1] == head and t[1, 0, 1] == sacrum and (t[:, 2:] == NO_SITE).all()
+
+
 def test_smpl_format_toy_body_gets_sites():
+    body = BodyModel(toy_body_arrays())
     s = vertex_sites(toy_body_arrays())
+    np.testing.assert_array_equal(vertex_sites(body), s)
+    np.testing.assert_array_equal(vertex_sites(body.torch_layer()), s)  # the network's body layer too
     for name in ("head", "scapulae", "sacrum", "left_heel", "right_heel", "left_elbow", "left_knee"):
         assert (s == site_index(name)).any(), name
     with pytest.raises(BadInput, match="BodyModel"):

@@ -1,0 +1,148 @@
+"""A night on the mat: timing, frame selection, posture runs, turns, time above the threshold, alerts."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pressurepose.body.sites import SITES, site_index
+from pressurepose.errors import BadInput
+from pressurepose.eval.monitor import (
+    FrameSelection,
+    MonitorConfig,
+    above_stretches,
+    frame_times,
+    load_change,
+    posture_runs,
+    select_frames,
+    timeline,
+)
+from pressurepose.mat import custom_mat
+
+MAT = custom_mat(8, 6, 0.03)
+
+
+# --------------------------------------------------------------------------- time
+def test_frame_times_from_a_rate_or_timestamps_and_bad_timing_refused():
+    np.testing.assert_allclose(frame_times(4, fps=2.0), [0, 0.5, 1.0, 1.5])
+    np.testing.assert_allclose(frame_times(3, timestamps=[100.0, 101.0, 103.0]), [0, 1, 3])
+    with pytest.raises(BadInput, match="frame rate"):
+        frame_times(3)
+    with pytest.raises(BadInput, match="not both"):
+        frame_times(3, fps=1.0, timestamps=[0, 1, 2])
+    with pytest.raises(BadInput, match="must increase"):
+        frame_times(3, timestamps=[0, 2, 1])
+    with pytest.raises(BadInput, match="one per frame"):
+        frame_times(3, timestamps=[0, 1])
+    with pytest.raises(BadInput, match="gap of 120 s between frames 1 and 2"):
+        frame_times(3, timestamps=[0, 1, 121], max_gap_s=60)
+    with pytest.raises(BadInput, match="frame rate"):
+        frame_times(3, fps=0.0)
+
+
+# --------------------------------------------------------------------------- which frames are read
+def test_only_frames_that_changed_since_the_last_estimate_are_estimated():
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(5, 40, (2, 8, 6))
+    frames = np.stack([a, a * 1.02, a * 1.04, a * 1.06, b, b, np.zeros((8, 6)), b])
+    sel = select_frames(frames, MonitorConfig(change=0.1, min_contact_taxels=10))
+    # drift accumulates against the last estimated frame, not the previous frame: 6 % twice is under 10 %
+    assert sel.estimated.tolist() == [True, False, False, False, True, False, False, True]
+    assert sel.ref.tolist() == [0, 0, 0, 0, 4, 4, -1, 7]  # after an empty frame the body is read again
+    assert sel.occupied.tolist() == [True] * 6 + [False, True]
+    assert load_change(a, a) == 0.0 and load_change(a, 2 * a) == pytest.approx(0.5)
+
+
+# --------------------------------------------------------------------------- postures and turns
+def test_short_movements_join_the_posture_before_them():
+    p = np.array(["supine"] * 100 + ["left"] * 10 + ["supine"] * 50 + ["right"] * 200 + ["empty"] * 5 + ["right"] * 70)
+    runs = posture_runs(p, np.ones(len(p)), min_posture_s=60)
+    assert runs == [("supine", 0, 160), ("right", 160, 435)]
+    runs = posture_runs(np.array(["left"] * 20 + ["supine"] * 100), np.ones(120), min_posture_s=60)
+    assert runs == [("supine", 0, 120)]  # a short first run joins the one after it
+
+
+def _night(schedule, fps=1.0, rng=None):
+    """Frames, rolls and site maps of a known schedule [(posture roll deg or None for empty, seconds)]:
+    each posture a fixed image with 3 % noise per frame; the body estimated on every frame."""
+    rng = rng or np.random.default_rng(1)
+    frames, roll = [], []
+    for deg, seconds in schedule:
+        n = int(seconds * fps)
+        if deg is None:
+            frames.append(np.zeros((n, 8, 6)))
+            roll += [np.nan] * n
+            continue
+        base = np.zeros((8, 6))
+        base[1:7, 1:5] = 10.0
+        base[5, 2] = 50.0  # the sacrum above the threshold while supine
+        frames.append(base * rng.uniform(0.97, 1.03, (n, 8, 6)))
+        roll += [np.radians(deg)] * n
+    frames = np.concatenate(frames).astype(np.float32)
+    t = frame_times(len(frames), fps=fps)
+    return t, frames, np.array(roll)
+
+
+def _read(t, frames, roll, config):
+    occupied = np.isfinite(roll)
+    sel = FrameSelection(occupied=occupied, estimated=occupied.copy(),
+                         ref=np.where(occupied, np.arange(len(t)), -1))
+    maps = np.full((int(occupied.sum()), 8, 6), site_index("other"), np.int8)
+    supine = np.abs(roll[occupied]) < np.radians(45)
+    maps[supine, 4:7, 1:4] = site_index("sacrum")  # lying on the back, the sacrum is under rows 4-6
+    return timeline(t, frames, sel, roll[occupied], maps, MAT, config)
+
+
+def test_every_turn_of_a_known_schedule_is_found_and_no_other():
+    schedule = [(0, 3000), (85, 1800), (3, 600), (-95, 2400), (None, 120), (-80, 600), (175, 1200)]
+    t, frames, roll = _night(schedule)
+    roll[3000:3020] = np.radians(-50)  # 20 s rolled the other way first: a movement, not a posture
+    tl = _read(t, frames, roll, MonitorConfig())
+    assert [(x.time_s, x.before, x.after) for x in tl.turns] == [
+        (3020.0, "supine", "left"), (4800.0, "left", "supine"), (5400.0, "supine", "right"),
+        (8520.0, "right", "prone")]  # back on the same side after leaving the bed: no turn
+    assert tl.turns[0].roll_change_deg == pytest.approx(85.0)
+    assert tl.turns[3].roll_change_deg == pytest.approx(175 - (-80) - 360)
+    assert tl.posture_s == pytest.approx({"supine": 3620.0, "left": 1780.0, "right": 3000.0, "prone": 1200.0,
+                                          "empty": 120.0})
+    assert tl.posture[3005] == "supine" and tl.posture[3100] == "left" and np.isnan(tl.roll_deg[7850])
+
+
+def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval():
+    schedule = [(0, 3000), (85, 1800), (3, 8000)]
+    t, frames, roll = _night(schedule)
+    tl = _read(t, frames, roll, MonitorConfig(threshold_mmhg=32.0, reposition_s=7200.0))
+    k = site_index("sacrum")
+    assert tl.peak_mmhg[10, k] > 45 and tl.peak_mmhg[4000, k] == 0.0  # unloaded on the side
+    assert tl.above_s["sacrum"] == pytest.approx(11000.0)
+    assert tl.longest_above_s["sacrum"] == pytest.approx(8000.0)
+    assert len(tl.alerts) == 1  # 3000 s supine is under 2 h; 8000 s is over
+    a = tl.alerts[0]
+    assert (a.site, a.start_s, a.due_s, a.duration_s) == ("sacrum", 4800.0, 12000.0, 8000.0)
+    assert tl.above_s["other"] == pytest.approx(1800.0)  # the same taxel lies under another site on the side
+    assert tl.share[10].sum() == pytest.approx(1.0)
+    json.dumps(tl.to_dict(), allow_nan=False)  # strict JSON
+    lines = tl.to_csv().splitlines()
+    assert len(lines) == len(t) + 1 and lines[0].startswith("time_s,posture,roll_deg,estimated,head_peak_mmhg")
+    assert len(lines[0].split(",")) == 4 + 2 * len(SITES)
+
+
+def test_a_short_dip_under_the_threshold_does_not_relieve_the_skin():
+    t = np.arange(100.0)
+    above = np.ones(100, bool)
+    above[40:50] = False  # 10 s under
+    assert above_stretches(above, t, np.ones(100), relief_s=60) == [(0, 100)]
+    assert above_stretches(above, t, np.ones(100), relief_s=5) == [(0, 40), (50, 100)]
+
+
+def test_bad_settings_and_shapes_are_refused():
+    with pytest.raises(BadInput, match="threshold_mmhg"):
+        MonitorConfig(threshold_mmhg=0)
+    with pytest.raises(BadInput, match="min_contact_taxels"):
+        MonitorConfig(min_contact_taxels=0)
+    t, frames, roll = _night([(0, 10)])
+    sel = select_frames(frames)
+    with pytest.raises(BadInput, match="one body per estimated frame"):
+        timeline(t, frames, sel, np.zeros(3), np.zeros((3, 8, 6), np.int8), MAT)
+    with pytest.raises(BadInput, match="frames"):
+        select_frames(frames[0])
