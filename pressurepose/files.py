@@ -110,8 +110,9 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     atomic_write(path, lambda p: Path(p).write_text(text))
 
 
-def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
-    write_text_atomic(path, json.dumps(obj, indent=indent) + "\n")
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1, allow_nan: bool = True) -> None:
+    """``obj`` as JSON; ``allow_nan=False``: strict JSON, ValueError on a NaN or infinite float."""
+    write_text_atomic(path, json.dumps(obj, indent=indent, allow_nan=allow_nan) + "\n")
 
 
 def save_npz_atomic(path: str | Path, **arrays) -> None:

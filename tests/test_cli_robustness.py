@@ -1,5 +1,5 @@
 """Every verb under bad input and faults: a clear ``error:`` (exit 2) and no traceback, nothing lost,
-nothing half-written, no wrong answer (issue 16). Physics is kept out: the datasets are toy or
+nothing half-written, no wrong answer. Physics is kept out: the datasets are toy or
 synthetic, the model untrained and tiny, and ``simulate`` runs on a stand-in for ``simulate_one``."""
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def run(argv, capsys):
 
 # (case id, argv given the world, text the error must contain)
 REFUSED = [
-    # wrong results before: evaluate with batch size <= 0 printed 0.00 cm, limits <= 0 nan or silently fewer
+    # values that would give wrong numbers: batch size <= 0 (0.00 cm), limits <= 0 (nan, or silently fewer)
     ("evaluate-batch-negative", lambda w: ["evaluate", "--model", w.model, "--data", w.data, "--batch-size", -1],
      "--batch-size"),
     ("evaluate-batch-zero", lambda w: ["evaluate", "--model", w.model, "--data", w.data, "--batch-size", 0],
@@ -94,7 +94,7 @@ REFUSED = [
     ("calibrate-max-evals-zero", lambda w: ["calibrate", "--targets", "default", "--max-evals", 0,
                                             "--out", w.root / "bed.json"], "--max-evals"),
     ("view-body-huge-betas", lambda w: ["view-body", "--betas", 1e6, "--out", w.root / "b.png"], "within"),
-    # tracebacks before
+    # missing or malformed files and odd values, which must not end in a traceback
     ("view-body-missing-pose", lambda w: ["view-body", "--pose", w.root / "nope.npy", "--out", w.root / "b.png"],
      "does not exist"),
     ("view-body-text-pose", lambda w: ["view-body", "--pose", w.root / "text.npy", "--out", w.root / "b.png"],
@@ -138,7 +138,7 @@ REFUSED = [
     ("info-png-missing-folder", lambda w: ["info", w.data, "--png", w.root / "missing" / "i.png"], "does not exist"),
     ("generate-out-file-in-the-way", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
                                                 "--producer", "synthetic", "--out", w.root / "afile"], "is a file"),
-    # silent acceptance before
+    # absurd values, which must not be accepted silently
     ("sample-absurd-count", lambda w: ["sample", "--partition", "general", "--gender", "f", "--count", 10 ** 12,
                                        "--seed", 0, "--out", w.root / "s.npz"], "--count"),
     ("generate-absurd-count", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 10 ** 12,
@@ -155,7 +155,7 @@ REFUSED = [
                                   "--out", w.root / "x.txt"], ".npz"),
     ("simulate-out-txt", lambda w: ["simulate", "--partition", "general", "--gender", "f",
                                     "--out", w.root / "x.txt"], ".npz"),
-    # found by a new user's pass (session 16): tracebacks, or work done before the refusal
+    # refused before any work is done, and without a traceback
     ("evaluate-real-bad-device", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                             "--device", "foo"], "not a torch device"),
     ("evaluate-real-contact-negative", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",

@@ -136,7 +136,7 @@ def test_load_npz_names_the_file_for_every_way_it_can_be_wrong(tmp_path):
 @pytest.mark.parametrize("loader", ["pose.samples:load_samples", "body.capsules:load_regressors",
                                     "calibrate.measurements:load_measurements", "body.smpl_io:load_body_arrays"])
 def test_every_npz_reader_refuses_a_corrupt_archive_by_name(tmp_path, loader):
-    """Readers that once let zipfile's error through: a damaged .npz is a BadInput naming the file."""
+    """A damaged .npz is a BadInput naming the file, not zipfile's own error."""
     import importlib
 
     module, name = loader.split(":")

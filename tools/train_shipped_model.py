@@ -28,8 +28,8 @@ Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
 ``--install``.
 
-Budget (defaults, which made the shipped model; 2-core CPU, about 3 hours). Measured on the
-session-5 to session-8 runs (docs/RESULTS.md sections generation-run, propped-ab and shipped_model):
+Budget (the defaults, which made the shipped model; 2-core CPU, about 3 hours), as measured in
+docs/RESULTS.md sections generation-run, propped-ab and shipped_model:
 
 - data: 6,000 training + 360 test samples of the paper's mix, 2 workers: 51 minutes (2.1 accepted
   samples per wall-second, 1.13 per CPU-second of the process tree); 2,000 general_lateral samples
@@ -40,13 +40,12 @@ session-5 to session-8 runs (docs/RESULTS.md sections generation-run, propped-ab
   rate schedules: about 62 minutes;
 - evaluation on the held-out set and on the real PMD-I images: a few minutes.
 
-The model shipped since session 17 is these defaults' run: seed 2 with the turn loss of weight 2
-(``--turn-loss 2``, not in the paper), data made in session 13, trained on this CPU (docs/RESULTS.md
-section turn-loss). Its seed-1 twin read real postures at 0.86 against its 0.845, and without the
-turn loss three seeds read 0.74-0.79 (section gpu-rebuild), so expect a rebuild to land within that
-spread, not on the same weights. ``--turn-loss 0 --seed 1`` rebuilds the model shipped in
-sessions 14-16. With today's defaults the whole data step, 9,498 training and 360 test samples,
-took 85 minutes with 2 workers. On a CUDA GPU (``--device auto`` finds one) the same schedule trained in about
+The shipped model is these defaults' run: seed 2 with the turn loss of weight 2 (``--turn-loss 2``,
+not in the paper), trained on a 2-core CPU (docs/RESULTS.md section turn-loss). Its seed-1 twin
+read real postures at 0.86 against its 0.845, and without the turn loss three seeds read 0.74-0.79
+(section gpu-rebuild), so expect a rebuild to land within that spread, not on the same weights.
+``--turn-loss 0`` trains with the paper's loss. With the defaults the whole data step, 9,498
+training and 360 test samples, took 85 minutes with 2 workers. On a CUDA GPU (``--device auto`` finds one) the same schedule trained in about
 10 minutes on an H200 (Mod1 7-10 s an epoch with three runs sharing the GPU, Mod2 11-12 s alone;
 docs/RESULTS.md section gpu-rebuild); with ``--batch-size 64`` two runs side by side took about 3.5
 minutes each, and read simulated and real images as well as the batch-32 seeds (section cnn-width).
@@ -73,14 +72,14 @@ PAPER_RECIPE = REPO / "pressurepose" / "data" / "recipes" / "paper.json"
 
 TRAIN_SAMPLES = 6_000  # at --scale 1
 TEST_SAMPLES = 360
-# seeds never used elsewhere in the project (the paper recipe uses 1 and 2, the old shipped model 900-905)
+# seeds never used elsewhere in the project (the paper recipe uses 1 and 2; 900-905 are taken too)
 TRAIN_SEED = 1410
 TEST_SEED = 1411
 LATERAL_SEED = 1412  # the general_lateral training entries
 LATERAL_SAMPLES = 2_000  # general_lateral training samples added to the paper mix (at --scale 1)
-PROPPED_SEED = 1414  # the propped_lateral training entries (1413: session 6's general_lateral test set)
-# propped_lateral training samples added by default (at --scale 1). With the session-6 schedule
-# (36 + 12 epochs) they cost the held-out simulated goal (13.36 cm); with 48 + 16 epochs the
+PROPPED_SEED = 1414  # the propped_lateral training entries (1413: a general_lateral test set)
+# propped_lateral training samples added by default (at --scale 1). With a 36 + 12 epoch schedule
+# they cost the held-out simulated MPJPE its 13 cm target (13.36 cm); with 48 + 16 epochs the
 # shipped model keeps it (12.85 cm) and reads real side-lying and propped bodies better
 # (docs/RESULTS.md sections propped-ab and shipped_model)
 PROPPED_SAMPLES = 1_500
@@ -164,7 +163,7 @@ def main() -> int:
                    help="chance that a training sample is mirrored left to right (train --mirror-p) [0]")
     p.add_argument("--turn-loss", type=float, default=2.0,
                    help="weight of the loss on the body's turn (train --turn-loss; not in the paper; 0: the "
-                        "paper's loss) [2: the shipped model's, session 17]")
+                        "paper's loss) [2: the shipped model's]")
     p.add_argument("--gender-input", action=argparse.BooleanOptionalAction, default=True,
                    help="also feed the gender flag to the CNN (not in the paper; --no-gender-input: the paper's) [on]")
     p.add_argument("--device", default="auto", help="training device: auto, cpu, cuda ... [auto]")
@@ -189,7 +188,7 @@ def main() -> int:
                    help="train on this dataset or training pack (`pressurepose pack`) instead of WORK/data/train; "
                         "generates nothing, and evaluates on WORK/data/test only if it is there")
     p.add_argument("--seed", type=seed_arg, default=2,
-                   help="training seed (split, shuffling, noise, init) [2: the shipped model's, session 17]")
+                   help="training seed (split, shuffling, noise, init) [2: the shipped model's]")
     p.add_argument("--install", action="store_true",
                    help="copy the trained model into the package (replaces the shipped model)")
     p.add_argument("--ship-to", default=None, metavar="DIR",

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Train variants of the shipped recipe side by side on one GPU from a training pack (`pressurepose pack`),
-# each with tools/train_shipped_model.py --train-data PACK --ship-to, as a session with a lent GPU does.
+# each with tools/train_shipped_model.py --train-data PACK --ship-to.
 #
 #   bash tools/train_variants_gpu.sh PACK DEADLINE_S [NAME:"TOOL ARGS" ...]
 #   bash tools/train_variants_gpu.sh train.npz 540 A:"--seed 0" A2:"--seed 1" B:"--seed 0 --epochs-mod1 72 --epochs-mod2 24"
@@ -11,9 +11,9 @@
 #
 # Writes NAME.log and NAME.tar (the float16 shipped form and log.csv) into $OUT (default runs/gpu_variants).
 # Each run is stopped DEADLINE_S seconds after it starts; a stopped run leaves only its log.csv.
-# Measured (session 13, one H200, the command saw 4 CPU cores): with three runs sharing the GPU each Mod1
+# Measured (one H200, the command saw 4 CPU cores): with three runs sharing the GPU each Mod1
 # epoch took 7-10 s, and a Mod2 epoch 11-12 s alone, so 48 + 16 epochs need about 10 minutes of the GPU;
-# three such runs side by side did not finish 48 Mod1 epochs in 450 s. Session 19 (one H200, 16 CPU cores,
+# three such runs side by side did not finish 48 Mod1 epochs in 450 s. With 16 CPU cores (one H200,
 # OMP_NUM_THREADS=2 a run): two runs side by side with "--batch-size 64" each took about 3.5 minutes
 # (Mod1 2.4-3.1 s an epoch, Mod2 4.3-5.6 s), the GPU 91-99 % busy, and read real and simulated images
 # as well as the batch-32 seeds (docs/RESULTS.md section cnn-width). A warm machine keeps WORK: a
@@ -27,7 +27,7 @@ nvidia-smi -L 2>/dev/null; echo "cpus: $(nproc)"
 python3 -c "import torch; print('torch', torch.__version__, torch.cuda.is_available() and torch.cuda.get_device_name())"
 (nvidia-smi --query-gpu=timestamp,utilization.gpu,memory.used --format=csv -l 20 > "$OUT/gpu.csv" 2>&1 &)
 # Preflight (about half a minute; PREFLIGHT=0 skips it): a training step's speed and how often it makes the
-# host wait for the GPU (session 14 removed the waits it knew of; 0 or 1 per step is expected, the 1 being
+# host wait for the GPU (0 or 1 per step is expected, the 1 being
 # the synchronisation the benchmark adds to time a step), for the half and the paper CNN at batch 32.
 if [ "${PREFLIGHT:-1}" = 1 ]; then
   python3 - <<'PY' 2>&1 | tee "$OUT/preflight.log"

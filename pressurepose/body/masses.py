@@ -1,9 +1,9 @@
 """Per-capsule masses and inertias for the capsule ragdoll.
 
 Total mass = rest mesh volume x 1000 kg/m^3 (``BodyModel.mass``). It is split into body segments by
-the fractions of REFERENCE section 4 (Tozeren; limb fractions are per side), normalised to sum to 1
-(the female table sums to 99.8 %); the neutral body uses the mean of the female and male tables.
-Capsules map onto segments as follows:
+Tozeren's fractions (Human Body Dynamics, 1999; paper appendix A.2; limb fractions are per side),
+normalised to sum to 1 (the female table sums to 99.8 %); the neutral body uses the mean of the
+female and male tables. Capsules map onto segments as follows:
 
 ============ ==================================================================
 segment      capsules
@@ -45,7 +45,7 @@ from pressurepose.body.mesh import mesh_volume
 from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput
 
-SEGMENT_FRACTIONS: dict[str, dict[str, float]] = {  # % of body mass, REFERENCE section 4
+SEGMENT_FRACTIONS: dict[str, dict[str, float]] = {  # % of body mass, Tozeren 1999 (paper appendix A.2)
     "female": {"trunk": 50.8, "head_neck": 9.4, "thigh": 8.3, "shank": 5.5, "foot": 1.2,
                "upper_arm": 2.7, "forearm": 1.6, "hand": 0.5},
     "male": {"trunk": 48.3, "head_neck": 7.1, "thigh": 10.5, "shank": 4.5, "foot": 1.5,

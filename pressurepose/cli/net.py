@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from pressurepose.cli.args import seed_arg
 
@@ -123,10 +122,27 @@ def run_pack(args) -> int:
 
 def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
-                     "betas, pose, joints (JSON and NPZ), meshes and pictures.")
-    p.add_argument("pressure_file", metavar="PRESSURE_FILE",
-                   help="pressure image(s), mmHg: .npy ((R, C) or (B, R, C)), .csv (one image), .npz (a `simulate` "
-                        "output or a training pack) or HDF5 (.h5, a shard of a generated dataset)")
+                     "betas, pose, joints (JSON and NPZ), meshes and pictures. Without --mat the images are mmHg "
+                     "on the model's own mat. With --mat, FILE is a recording from that mat (any size, raw or "
+                     "mmHg): its frames are cleaned, put in mmHg and resampled onto the model's mat as "
+                     "evaluate-real does (docs/real-mats.md).")
+    p.add_argument("pressure_file", metavar="FILE",
+                   help="pressure image(s): .npy ((R, C) or (B, R, C)), .csv (one image); without --mat also .npz (a "
+                        "`simulate` output or a training pack) or HDF5 (.h5, a shard of a generated dataset); with "
+                        "--mat also a text recording (.txt) of one frame a line, as PMD experiment I's files (every "
+                        "frame that carries the body is estimated)")
+    p.add_argument("--mat", default=None, metavar="PRESET|mat.json",
+                   help="the recording's mat: a preset (boditrak_bt3510, fsa_softflex_2048, slp, tip) or a mat.json "
+                        "(preset, or rows, cols, pitch_m and optional pitch_col_m); default: the images are mmHg on "
+                        "the model's mat")
+    p.add_argument("--units", choices=("raw", "mmHg"), default=None,
+                   help="with --mat: the readings' units, raw (the mat's own; needs --weight-kg or --gain) or mmHg")
+    p.add_argument("--weight-kg", type=float, default=None, metavar="W",
+                   help="raw readings to mmHg by the person's weight: each frame's total load set to W x g")
+    p.add_argument("--gain", type=float, default=None, metavar="G",
+                   help="raw readings to mmHg by your mat's calibration: G mmHg per raw unit")
+    p.add_argument("--head-row", choices=("first", "last"), default="first",
+                   help="with --mat: which end of the rows is the head: first (row 0, default) or last (flipped)")
     p.add_argument("--gender", default=None, help="f or m (one for all images, or comma-separated per image); "
                                                  "may be left out for a file that stores it (a dataset shard, a "
                                                  "`simulate` .npz, a training pack)")
@@ -165,40 +181,78 @@ def body_specs(args) -> tuple[str, str] | None:
     return args.female, args.male
 
 
+def frame_ranges(frames) -> str:
+    """'2-13, 15' for frame indices [2, 3, ..., 13, 15]."""
+    out, start, prev = [], None, None
+    for f in [int(x) for x in frames] + [None]:
+        if start is not None and (f is None or f != prev + 1):
+            out.append(str(start) if start == prev else f"{start}-{prev}")
+            start = None
+        if f is not None and start is None:
+            start = f
+        prev = f
+    return ", ".join(out)
+
+
+SHOWN_ESTIMATES = 5  # images whose pelvis and shape infer prints
+
+
 def run_infer(args) -> int:
     import sys
+    import warnings
 
     from pressurepose.errors import BadInput
     from pressurepose.files import check_output_path
     from pressurepose.net.infer import (
-        check_pressure,
         estimate,
         load_genders,
         load_pressure,
-        pressure_warnings,
         resolve_model,
     )
 
-    check_output_path(args.out, "--out", directory=True)
+    out = check_output_path(args.out, "--out", directory=True)
     if args.max_figures < 0:
         raise BadInput(f"--max-figures is {args.max_figures}; expected 0 or more")
-    pressure = load_pressure(args.pressure_file, key=args.key)
+    if args.mat is None:
+        given = [flag for flag, v in (("--units", args.units), ("--weight-kg", args.weight_kg), ("--gain", args.gain))
+                 if v is not None] + (["--head-row"] if args.head_row != "first" else [])
+        if given:
+            raise BadInput(f"{', '.join(given)} describe a recording on its own mat: give --mat too (a preset or a "
+                           f"mat.json); without --mat the images are mmHg on the model's mat")
+        source = load_pressure(args.pressure_file, key=args.key)
+        recording = {}
+    else:
+        if args.units is None:
+            raise BadInput("--mat needs --units: raw (the mat's own readings, with --weight-kg or --gain) or mmHg")
+        source = args.pressure_file
+        recording = dict(mat=args.mat, units=args.units, weight_kg=args.weight_kg, gain=args.gain,
+                         head_row=args.head_row)
     if args.gender is None:
         gender = load_genders(args.pressure_file)
     else:
         gender = args.gender.split(",") if "," in args.gender else args.gender
     net = resolve_model(args.model, body_specs(args))
-    for note in pressure_warnings(check_pressure(pressure, net.config.grid.shape, what=str(args.pressure_file)),
-                                  what=str(args.pressure_file)):
-        print(f"warning: {note}", file=sys.stderr)
-    est = estimate(pressure, gender, model=net, progress=pressure.ndim == 3 and len(pressure) > 64, mirror=args.mirror)
+    progress = args.mat is None and source.ndim == 3 and len(source) > 64
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        est = estimate(source, gender, model=net, progress=progress, mirror=args.mirror, what=str(args.pressure_file),
+                       **recording)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     from pressurepose.viz.estimate import save_estimate_figures
 
-    paths = est.save(args.out, mesh_format=args.mesh_format)
-    paths += save_estimate_figures(est, args.out, max_figures=args.max_figures)
-    print(f"{len(est)} estimate(s) written to {Path(args.out)} ({len(paths)} files)")
-    for i in range(min(len(est), 5)):
+    paths = est.save(out, mesh_format=args.mesh_format)
+    paths += save_estimate_figures(est, out, max_figures=args.max_figures)
+    print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
+    if est.frame is not None:
+        left_out = "" if list(est.frame) == list(range(len(est))) else " (the others blank or start-up frames)"
+        print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file}{left_out}, on the {args.mat} mat, "
+              f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
+    for i in range(min(len(est), SHOWN_ESTIMATES)):
         root = est.joints[i, 0]
-        print(f"  image {i}: pelvis at ({root[0]:.3f}, {root[1]:.3f}, {root[2]:.3f}) m, betas[:3] "
+        name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
+        print(f"  {name}: pelvis at ({root[0]:.3f}, {root[1]:.3f}, {root[2]:.3f}) m, betas[:3] "
               f"{', '.join(f'{b:+.2f}' for b in est.betas[i, :3])}")
+    if len(est) > SHOWN_ESTIMATES:
+        print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")
     return 0

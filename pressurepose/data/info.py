@@ -123,7 +123,7 @@ def settle_line(record) -> str:
     neck = "relaxed neck" if record.get("relaxed_neck", False) else "the paper's stiff neck"
     k = record.get("spine_stiffness")  # absent: made before the spine could relax
     spine = "the paper's stiff spine" if k is None else f"relaxed spine ({k:g} N m/rad)"
-    dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: before session 12
+    dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: made with one step length
     step = (f"step {dt:g} s throughout" if factor == 1.0 else
             f"step {dt:g} s, {factor * dt:g} s from {record.get('coarse_after_steps')} steps after touching")
     limbs = record.get("limb_damping_s")  # absent: the paper's limb damping

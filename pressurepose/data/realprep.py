@@ -46,6 +46,7 @@ from pressurepose.mat import MatSpec, get_mat
 G = 9.80665                # m/s^2
 HEAD_HEEL_OFFSET_M = 0.06  # standing height minus supine head-to-heel contact extent (see module doc)
 FSA_PITCH_M = get_mat("fsa_softflex_2048").pitch_row_m  # fitted on PMD experiment I (module doc)
+UNITS = ("raw", "mmHg")  # a recording's units: the mat's own (raw) or calibrated mmHg
 
 
 def _images(images, what: str = "images", ndim_min: int = 2) -> np.ndarray:
@@ -220,8 +221,9 @@ def prepare(images, mat: MatSpec, units: str, dst: MatSpec, weight_kg=None, gain
     """Model input from real images (N, mat.rows, mat.cols), row 0 at the head: baseline removed,
     stuck and dead taxels repaired, raw units turned to mmHg (``gain``, else weight normalisation
     with ``weight_kg``), resampled onto ``dst`` keeping the force, clipped to ``dst``'s range as the
-    simulated sensor is. Returns (N, dst.rows, dst.cols) float32 mmHg."""
-    if units not in ("raw", "mmHg"):
+    simulated sensor is. Returns (N, dst.rows, dst.cols) float32 mmHg. Real images reach a model
+    through :meth:`pressurepose.data.readers.images.RealImages.model_input`, which calls this."""
+    if units not in UNITS:
         raise BadInput(f"units {units!r} is not known; expected raw or mmHg")
     p = _images(images, ndim_min=3)
     if p.shape[-2:] != mat.shape:

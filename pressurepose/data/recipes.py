@@ -4,7 +4,7 @@ A recipe is a JSON file ``{"format": "pressurepose-recipe", "entries": [...]}``;
 ``name`` (its sub-directory of the output, e.g. ``"train/general_f_plo"``), ``split``, and the
 config keys ``partition``, ``gender``, ``limbs_on_bed``, ``count``, ``seed``. Settings shared by all
 entries (mat, shard size, producer, options) come from the command line. ``"paper"`` names the
-shipped recipe ``recipes/paper.json`` (REFERENCE section 2, paper appendix A.7).
+shipped recipe ``recipes/paper.json`` (the partitions and counts of the paper's appendix A.7 table).
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ from pressurepose.mat import get_mat
 
 GRAVITY = 9.81
 DEPTH_EMPTY_M = 1.0  # depth where no body is above a taxel, as pressurepose.sim.press reports it
-WINKLER_K = 1.0e5  # N/m^3, foundation modulus used for the synthetic sink depth (REFERENCE section 5)
+WINKLER_K = 1.0e5  # N/m^3, foundation modulus used for the synthetic sink depth (a foam mattress's)
 # share of body weight carried under each joint (pelvis, hips, spine, shoulders... hands)
 _LOAD = np.array([12, 6, 6, 8, 4, 4, 8, 2, 2, 8, 1, 1, 3, 3, 3, 7, 3, 3, 2, 2, 1, 1, 0.5, 0.5])
 _LOAD = _LOAD / _LOAD.sum()

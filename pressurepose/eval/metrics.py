@@ -1,4 +1,4 @@
-"""Error metrics of the paper (section 5.4; REFERENCE section 7) and its mean-pose baseline.
+"""Error metrics of the paper (section 5.4, Table 2) and its mean-pose baseline.
 
 * MPJPE: mean Euclidean error over the 24 joints, per sample.
 * v2v: mean Euclidean error over all mesh vertices (estimate and truth share a topology).

@@ -1,7 +1,7 @@
 """Scoring a PressureNet on real pressure images with known posture, height and weight.
 
-For each image (:class:`pressurepose.data.readers.images.RealImages`) prepared as model input
-(:func:`pressurepose.data.realprep.prepare`): the estimate's posture class against the label
+For each image (:class:`pressurepose.data.readers.images.RealImages`) made model input
+(:meth:`~pressurepose.data.readers.images.RealImages.model_input`, the road ``infer`` takes too): the estimate's posture class against the label
 (:mod:`pressurepose.eval.posture`), its stature and mass against the measured height and weight,
 and the intersection over union of its reconstructed contact map (PMR) with the input's contact
 (taxels above ``contact_mmhg``). Images recorded on an inclined bed are not evaluated; images whose
@@ -15,12 +15,14 @@ them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pressurepose.data.readers.images import RealImages
-from pressurepose.data.realprep import prepare
 from pressurepose.errors import BadInput
 from pressurepose.eval.posture import (
     body_stature_mass,
@@ -31,6 +33,9 @@ from pressurepose.eval.posture import (
 )
 from pressurepose.mat import MatSpec
 from pressurepose.pose.posture import roll_angle
+
+if TYPE_CHECKING:
+    from pressurepose.net.infer import Estimate
 
 GENDER_CHOICES = ("f", "m", "both")
 
@@ -81,8 +86,7 @@ def model_inputs(real: RealImages, net, config: RealEvalConfig = RealEvalConfig(
     if not keep.any():
         raise BadInput("no real image left to evaluate (all inclined-bed or weak recordings)")
     r = real.select(keep)
-    dst = MatSpec("model", *net.config.grid.shape, net.config.grid.pitch_row_m, net.config.grid.pitch_col_m)
-    x = prepare(r.images, r.mat, r.units, dst, weight_kg=r.weight_kg, gain=r.gain)
+    x = r.model_input(net.config.grid)
     idx, genders = [], []
     for i, g in enumerate(r.gender):
         use = [g] if g and not config.force_gender else (["f", "m"] if config.gender == "both" else [config.gender])
@@ -91,9 +95,69 @@ def model_inputs(real: RealImages, net, config: RealEvalConfig = RealEvalConfig(
     return r, x, np.array(idx), genders, {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())}
 
 
-def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()) -> dict:
-    """Estimates and per-estimate scores: {'rows': {name: (K,) array}, 'estimate': Estimate,
-    'input': (K, R, C) model input, 'summary': :func:`summarise`, 'skipped': {reason: count}}."""
+def json_ready(value):
+    """``value`` with numpy numbers and arrays as Python ones and NaN or infinite floats as None, for
+    strict JSON (no NaN literals)."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class RealEvaluation:
+    """What :func:`evaluate_real` found: K estimates (an image read with one body model each).
+
+    rows: {name: (K,) array}: image (index into the scored images), subject, posture (label),
+    detail, source, frame (index in the source file, -1 for a median of its frames), body_model, predicted (class), scored, correct, roll_deg, stature_m, height_m,
+    stature_err_m, mass_kg, weight_kg, mass_err_kg, contact_iou. estimate: the K estimates. input:
+    (K, R, C) mmHg the model input. summary: :func:`summarise`. skipped: {reason: count of images
+    left out}. n_images: images scored. contact_mmhg: the input's contact threshold for the IoU.
+    layout, mat, units, gain: the real images' (:class:`RealImages`).
+    """
+
+    rows: dict
+    estimate: Estimate
+    input: np.ndarray
+    summary: dict
+    skipped: dict
+    n_images: int
+    contact_mmhg: float
+    layout: str
+    mat: MatSpec
+    units: str
+    gain: float | None
+
+    def metrics(self, **about) -> dict:
+        """The metrics.json record: ``about`` (what the caller knows: data, model, options) first, then
+        layout, mat, units, gain, contact_mmhg, n_images, skipped and the summary; strict-JSON ready
+        (NaN as None)."""
+        return json_ready({**about, "layout": self.layout, "mat": self.mat.name, "units": self.units,
+                           "gain": self.gain, "contact_mmhg": self.contact_mmhg, "n_images": self.n_images,
+                           "skipped": self.skipped, **self.summary})
+
+    def write_metrics(self, path, **about) -> Path:
+        """Write :meth:`metrics` to ``path`` as strict JSON (null where a value is not a number)."""
+        from pressurepose.files import write_json_atomic
+
+        write_json_atomic(path, self.metrics(**about), allow_nan=False)
+        return Path(path)
+
+    def per_estimate(self) -> list[dict]:
+        """One strict-JSON-ready dict per estimate: its rows' values and its betas."""
+        betas = self.estimate.betas
+        return [json_ready({**{k: v[i] for k, v in self.rows.items()}, "betas": betas[i]})
+                for i in range(len(self.rows["image"]))]
+
+
+def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig()) -> RealEvaluation:
+    """Estimates and per-estimate scores of the images of ``real`` that are scored (see
+    :func:`model_inputs`)."""
     from pressurepose.net.infer import estimate
 
     r, x, idx, genders, skipped = model_inputs(real, net, config)
@@ -102,16 +166,16 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],
-            "source": r.source[idx], "body_model": np.array(genders), "predicted": pred,
+            "source": r.source[idx], "frame": r.frame[idx], "body_model": np.array(genders), "predicted": pred,
             "scored": np.isin(r.posture[idx], ("supine", "left", "right", "lateral", "prone")),
             "correct": posture_correct(r.posture[idx], pred), "roll_deg": np.degrees(roll_angle(est.pose)),
             "stature_m": h, "height_m": r.height_m[idx],
             "stature_err_m": h - r.height_m[idx], "mass_kg": m, "weight_kg": r.weight_kg[idx],
             "mass_err_kg": m - r.weight_kg[idx],
             "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg)}
-    return {"rows": rows, "estimate": est, "input": x[idx], "summary": summarise(rows),
-            "skipped": skipped,
-            "n_images": len(r), "contact_mmhg": contact_mmhg}
+    return RealEvaluation(rows=rows, estimate=est, input=x[idx], summary=summarise(rows), skipped=skipped,
+                          n_images=len(r), contact_mmhg=contact_mmhg, layout=real.layout, mat=real.mat,
+                          units=real.units, gain=real.gain)
 
 
 def contact_threshold(net, config: RealEvalConfig) -> float:
@@ -168,9 +232,10 @@ def summarise(rows: dict) -> dict:
 
 
 def is_wedge(details) -> np.ndarray:
-    """(N,) bool: source postures recorded on a wedge (PMD postures 4-7: the body turned 30 or 60
-    degrees and propped, labelled left or right by the source; at 30 degrees the project's posture
-    classes, split at 45 degrees of roll, call such a body supine)."""
+    """(N,) bool: source postures recorded on a wedge (PMD-I postures 4-7: the body turned 30 or 60
+    degrees and propped, labelled left or right by the source; PMD-II E1-E6, turned part-way onto
+    either side on a support, labelled 'lateral'; at 30 degrees the project's posture classes, split
+    at 45 degrees of roll, call such a body supine)."""
     return detail_has(details, ("wedge",))
 
 

@@ -2,7 +2,8 @@
 
 * :func:`load_real`: a real-data folder (PMD or a generic labelled folder, through
   :func:`pressurepose.data.readers.real.read_real`) prepared as the simulated images are made:
-  weight-normalised mmHg resampled onto the simulated mat (:func:`pressurepose.data.realprep.prepare`);
+  weight-normalised mmHg resampled onto the simulated mat
+  (:meth:`~pressurepose.data.readers.images.RealImages.model_input`, the road every real image takes);
   inclined-bed and weak recordings, and (by default) images whose source posture names a wedge,
   are left out.
 * :func:`load_synthetic`: a generated dataset (directory) or a ``pressurepose simulate`` ``.npz``;
@@ -63,7 +64,6 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
     """Real images of ``folder`` as weight-normalised mmHg on ``mat`` (see the module docstring);
     ``only_detail``: keep only images whose source posture names one of these words (e.g. "wedge")."""
     from pressurepose.data.readers.real import read_real
-    from pressurepose.data.realprep import prepare
 
     real = read_real(folder, frames=frames)
     group = R.posture_group(real.posture)
@@ -72,7 +72,7 @@ def load_real(folder, mat: MatSpec, *, exclude_detail: tuple[str, ...] = ("wedge
         raise BadInput(f"{folder}: no real image with a flat-bed supine, lateral or prone posture label"
                        + (f" naming {' or '.join(only_detail)}" if only_detail else ""))
     r = real.select(keep)
-    x = prepare(r.images, r.mat, r.units, mat, weight_kg=r.weight_kg, gain=r.gain)
+    x = r.model_input(mat)
     return ImageSet(f"real ({r.layout}, {Path(folder).name})", x.astype(np.float64), group[keep], mat,
                     height=np.asarray(r.height_m, dtype=np.float64), subject=np.asarray(r.subject, dtype=str))
 
@@ -226,8 +226,8 @@ def _median(v) -> float | None:
 
 
 def headline(report: dict) -> list[dict]:
-    """One row per posture: the numbers issue 12 sets goals on (contact area, head imprint, load
-    share per region, pressures, load off the mat)."""
+    """One row per posture: the numbers the realism targets judge (contact area, head imprint, load
+    share per region), the pressures and the load off the mat."""
     rows = []
     for g, d in report["postures"].items():
         r, s = d["real"], d["simulated"]
@@ -248,7 +248,7 @@ def headline(report: dict) -> list[dict]:
     return rows
 
 
-# Issue 12's realism goals: the simulated contact area within 20 % of the real (median ratio), a head
+# The realism targets: the simulated contact area within 20 % of the real (median ratio), a head
 # imprint in at least 80 % of simulated images, and every region's mean load share within 5 percentage points.
 AREA_RATIO_TOLERANCE = 0.2
 AREA_RATIO_GOAL = (1.0 - AREA_RATIO_TOLERANCE, 1.0 + AREA_RATIO_TOLERANCE)
@@ -257,7 +257,7 @@ SHARE_GAP_GOAL_PP = 5.0
 
 
 def goal_verdicts(rows: list[dict]) -> list[dict]:
-    """Issue 12's goals checked on :func:`headline` rows: per posture and goal, ``{'posture', 'goal',
+    """The realism targets checked on :func:`headline` rows: per posture and target, ``{'posture', 'goal',
     'value', 'target', 'met'}``, and for the share goal ``'interval'`` (the worst gap's 90 % interval
     from resampling the real people, or None) and ``'interval_holds_goal'`` (whether that interval
     reaches the goal: with few real people a gap just over 5 pp may not differ from it)."""

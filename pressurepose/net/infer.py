@@ -1,9 +1,14 @@
 """Running a trained PressureNet: ``estimate(pressure, gender) -> Estimate`` and its files.
 
 >>> from pressurepose.net.infer import estimate
->>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg
+>>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg on the model's mat
 >>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
 >>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply
+>>> est = estimate("S1/1.txt", "m", mat="fsa_softflex_2048", units="raw", weight_kg=87)  # a real recording
+
+A real recording on any mat (``mat=``) is read by
+:func:`pressurepose.data.readers.recording.read_recording` and made model input by
+:meth:`pressurepose.data.readers.images.RealImages.model_input`, the road ``evaluate-real`` takes.
 """
 
 from __future__ import annotations
@@ -16,10 +21,11 @@ from typing import Sequence
 import numpy as np
 import torch
 
+from pressurepose.data.readers.images import RealImages
+from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput
 from pressurepose.files import (
     atomic_write,
-    read_npy,
     save_npz_atomic,
     write_json_atomic,
 )
@@ -38,7 +44,9 @@ class Estimate:
     vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
     reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
-    model's mat; mirror: whether each body averages the readings of the image and of its mirror.
+    model's mat; mirror: whether each body averages the readings of the image and of its mirror;
+    frame: (B,) int, each image's frame index in the recording it was read from (None for images
+    given on the model's mat).
     """
 
     betas: np.ndarray
@@ -54,13 +62,15 @@ class Estimate:
     mod1_joints: np.ndarray
     grid: MatSpec
     mirror: bool = False
+    frame: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
 
     def to_records(self) -> list[dict]:
         """One JSON-ready dict per image."""
-        return [{"gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
+        frame = [{} if self.frame is None else {"frame": int(self.frame[i])} for i in range(len(self))]
+        return [{**frame[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
     def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
@@ -78,7 +88,8 @@ class Estimate:
                                      "mirror_averaged": bool(self.mirror), "estimates": self.to_records()})
         save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
                         vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
-                        gender=np.array(self.gender))
+                        gender=np.array(self.gender),
+                        **({} if self.frame is None else {"frame": np.asarray(self.frame, dtype=np.int64)}))
         for i in range(len(self)):
             p = out / f"mesh_{i:03d}.{mesh_format}"
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
@@ -107,16 +118,8 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         raise BadInput(f"pressure file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     try:
-        if suffix == ".npy":
-            arr = read_npy(path, "pressure")
-        elif suffix == ".csv":
-            import warnings
-
-            with warnings.catch_warnings():  # an empty file: our error below, not numpy's warning
-                warnings.simplefilter("ignore", UserWarning)
-                arr = np.loadtxt(path, delimiter=",", ndmin=2)
-            if arr.size == 0:
-                raise BadInput(f"pressure file {str(path)!r} holds no numbers; expected R rows of C comma-separated values")
+        if suffix in (".npy", ".csv"):
+            arr = read_array_file(path, "pressure")
         elif suffix == ".npz":
             from pressurepose.files import load_npz
 
@@ -278,19 +281,54 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
 
 
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
-             progress: bool = False, mirror: bool = False) -> Estimate:
+             progress: bool = False, mirror: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
+             gain: float | None = None, head_row: str = "first", what: str | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
-    pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch).
+    pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch); or,
+    with ``mat``, a real recording on any mat: an array or a file (.npy, .csv, a PMD-style .txt of
+    one frame a line), read by :func:`pressurepose.data.readers.recording.read_recording` with
+    ``units`` ('raw' or 'mmHg'), ``weight_kg`` or ``gain`` (raw readings to mmHg) and ``head_row``
+    ('first' or 'last': which end of the rows is the head), or a RealImages from any reader.
+    Either way a real recording is cleaned, put in mmHg and resampled onto the model's mat by
+    :meth:`~pressurepose.data.readers.images.RealImages.model_input`, as ``evaluate-real`` does,
+    and ``Estimate.frame`` says which frames were estimated.
     gender: 'f' / 'm' (or female / male) for all images, or one per image.
     model: None (the shipped model), a model path, or a loaded :class:`PressureNet`.
     bodies: (female, male) body model specs overriding the stored ones (see :func:`resolve_model`).
     mirror: also read each image's left-right mirror and average the two bodies
     (:mod:`pressurepose.net.mirror`; about twice the work).
+    what: the input's name in messages (default: the file, or 'pressure').
+
+    Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings`) about empty images and
+    readings above the sensor's range; BadInput when every image is empty or readings lie beyond
+    10 times the range (not mmHg).
     """
+    import warnings
+
     net = resolve_model(model, bodies)
-    arr = check_pressure(pressure, net.config.grid.shape)
+    frame = None
+    if isinstance(pressure, RealImages) or mat is not None:
+        real = pressure if isinstance(pressure, RealImages) else read_recording(
+            pressure, mat, units, weight_kg=weight_kg, gain=gain, head_row=head_row)
+        if isinstance(pressure, RealImages) and (mat is not None or units is not None or weight_kg is not None
+                                                 or gain is not None or head_row != "first"):
+            raise BadInput("a RealImages carries its own mat, units, weight and gain; pass them to its reader")
+        what = what or (str(pressure) if isinstance(pressure, (str, Path)) else "the recording")
+        arr = real.model_input(net.config.grid)
+        frame = real.frame
+        notes = (pressure_warnings(real.images, real.mat.max_mmhg, what) if real.units == "mmHg"
+                 else pressure_warnings(arr, net.config.grid.max_mmhg, what))
+    else:
+        if units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
+            raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
+                           "too (mat=preset name or mat.json)")
+        what = what or "pressure"
+        arr = check_pressure(pressure, net.config.grid.shape, what=what)
+        notes = None
     genders = _genders(gender, len(arr))
+    for note in pressure_warnings(arr, net.config.grid.max_mmhg, what) if notes is None else notes:
+        warnings.warn(note, stacklevel=2)
     parts = run_network(net, arr, genders, batch_size, progress, mirror)
 
     def cat(fn):
@@ -301,4 +339,5 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
-                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror))
+                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
+                    frame=frame)

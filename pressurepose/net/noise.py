@@ -1,4 +1,4 @@
-"""The training noise model (REFERENCE section 6; paper section 5.2): synthetic images made to
+"""The training noise model (paper section 5.2; figures from its public code): synthetic images made to
 look like a real sensor's.
 
 Per image: multiply by N(1, 0.2); add per-taxel N(0, 14) mmHg to the non-zero taxels; clip to

@@ -35,7 +35,7 @@ BETA_LIMIT = 3.0
 SL_BETAS, SL_TRANSL, SL_ROOT, SL_ANGLES = slice(0, 10), slice(10, 13), slice(13, 19), slice(19, 88)
 
 # Ranges (degrees, SMPL local axes x, y, z) for the degrees of freedom the pose sampler leaves at 0
-# (REFERENCE section 3: spine, neck, ankles, wrists ...), from normal adult ranges of motion
+# (as in the paper's public code: spine, neck, ankles, wrists ...), from normal adult ranges of motion
 # (AAOS / Soucie et al. 2011 / Roaas & Andersson 1982): SMPL's +x flexes the trunk, neck, knee and
 # points the foot down. Spine: lumbar + thoracic flexion ~80, extension ~30, lateral bending ~35,
 # rotation ~45 per side, split over spine1-3. Neck: cervical flexion ~50, extension ~60, lateral

@@ -10,8 +10,9 @@ x -> -x, y -> -z, z -> -y (180 deg about (0, 1, -1)/sqrt 2). ``roll`` is a right
 the body's head direction -y (0 supine, +pi/2 on the left side, -pi/2 on the right side, +-pi
 prone), ``pitch`` tilts the head up or down, ``yaw`` turns the body in the bed's plane
 (counter-clockwise seen from above). With pitch 0 this is exactly the pose sampler's (roll, yaw)
-(:mod:`pressurepose.pose.root`). The middle angle is the pitch, which is 0 in the data (REFERENCE
-section 3), so the convention is far from its gimbal lock at pitch = +-pi/2.
+(:mod:`pressurepose.pose.root`). The middle angle is the pitch, which is 0 in the data (the paper's
+public code, Healthcare-Robotics/bodies-at-rest, samples none), so the convention is far from its
+gimbal lock at pitch = +-pi/2.
 
 SMPL's root parameter r rotates the y-up model; the body layer turns its output by the fixed
 Q = Y_UP_TO_Z_UP, so R(r) = Q^T W Q. Everything goes through unit quaternions (w, x, y, z) and is

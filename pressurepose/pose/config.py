@@ -59,7 +59,7 @@ class SamplerConfig:
     own band.
     max_limb_sink: None (default) or how far a limb capsule may reach below the surface the body lies
     on, m (the opt-in ``into_bed`` test; e.g. 0.05: the trunk sinks up to ~6.5 cm into the foam and a
-    lightly loaded limb ~1.5-2 cm, REFERENCE section 5). Neither the paper nor the public code has
+    lightly loaded limb ~1.5-2 cm in the simulated mattress). Neither the paper nor the public code has
     this test, and on ``general_supine`` it biased the limbs (hip flexion -52 deg mean against the
     public sampler's -38, see the sampler's module docstring), so it is off unless asked for.
     clearance: start height of the lowest capsule surface above the mattress.

@@ -1,5 +1,5 @@
-"""Joint angle limits of the pose sampler, as data (REFERENCE section 3; the paper's references
-Boone 1979, Roaas 1982, Soucie 2011 via the public code).
+"""Joint angle limits of the pose sampler, as data (the paper's public code, which takes them from
+Boone 1979, Roaas 1982 and Soucie 2011).
 
 Angles are the components of SMPL's own local axis-angle vectors (``pose[3 j: 3 j + 3]``, SMPL's
 y-up model frame: x = body's left, y = up, z = forward). Each component is sampled uniformly and
@@ -12,8 +12,8 @@ independently within its range. On the T-posed body:
   (same axis, so the arm's total rotation is the sampled vector).
 * elbows: one axis, y (left negative, right positive bends the forearm forward).
 
-Spine, neck, head, ankles, feet, wrists and hands are held at 0 by the sampler; the reference
-gives no ranges for them. ``hands_behind_head`` widens the shoulder ranges by 45 deg on the side
+Spine, neck, head, ankles, feet, wrists and hands are held at 0 by the sampler; the public
+code gives no ranges for them. ``hands_behind_head`` widens the shoulder ranges by 45 deg on the side
 that lifts the arm over the head (x upper bound, and z upper bound left / lower bound right).
 """
 
@@ -47,11 +47,11 @@ COLLAR_OF = {"left_shoulder": "left_collar", "right_shoulder": "right_collar"}
 class JointLimits:
     """Per-joint, per-axis angle limits (radians) of SMPL's 24 local axis-angle vectors.
 
-    lower, upper: (24, 3). Rows of joints the reference limits (hips, knees, collars, shoulders,
+    lower, upper: (24, 3). Rows of joints the public code limits (hips, knees, collars, shoulders,
     elbows) hold their ranges, with the collar and shoulder rows holding 1/3 and 2/3 of the total
-    shoulder range; every other row is [0, 0] (held at 0 while sampling; no reference range).
+    shoulder range; every other row is [0, 0] (held at 0 while sampling; no published range).
     Row 0 (the global orientation) is not limited here and holds [0, 0].
-    limited: (24,) bool, True for the joints with reference ranges.
+    limited: (24,) bool, True for the joints with published ranges.
     hinge_axis: (24,) int, the single axis of hinge joints (knees 0 = x, elbows 1 = y), -1 otherwise.
     shoulder_lower, shoulder_upper: (2, 3) the total (collar + shoulder) ranges, left then right;
     the sampler draws these and splits them with ``shoulder_split`` (collar share).

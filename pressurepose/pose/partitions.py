@@ -1,4 +1,4 @@
-"""The PressurePose posture partitions (paper appendix A.7, REFERENCE sections 2-3), as data.
+"""The PressurePose posture partitions (paper appendix A.7 and its public code), as data.
 
 Cartesian bins (paper appendix A.1): the distal joint of each limb (ankle, wrist) is placed along
 the bed's long axis (the body lies along it, yawed up to 30 deg) relative to its proximal joint
@@ -88,7 +88,7 @@ PARTITIONS: dict[str, Partition] = {p.name: p for p in (
               "behind the back (not a paper partition); legs over 4 bins, arms over 8",
               roll=(np.radians(25.0), np.radians(70.0)), either_side=True, wedge=True),
 )}
-# short names used in the issue and the first drafts of the CLI
+# short names the CLI also accepts
 ALIASES: dict[str, str] = {"supine": "general_supine", "crossed_legs": "supine_crossed_legs",
                            "straight_limbs": "supine_straight_limbs"}
 

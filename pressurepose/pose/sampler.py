@@ -48,9 +48,9 @@ bed". That holds for a supine or prone body, whose hips and shoulders lie 0.1-0.
 but on its side the upper hip and shoulder are 0.3-0.45 m up, so the rule starts the upper arm and
 leg in the air (the ankle or wrist up to 0.6 m above the bed); they sink on their soft joints
 while the trunk rests on its narrow side, and the body rolls over. ``height_reference="bed"`` applies the band to the height above the bed instead.
-Measured on ``general`` (seed 13, 200 bodies per gender, settled by :mod:`pressurepose.sim.settle`):
-lateral starts that settled on their side 46 -> 61 of 106 (female), 38 -> 52 (male); supine and prone
-starts settled as before (87 -> 87 female, 85 -> 86 male); settle CPU per accepted body 0.41 -> 0.26 s
+Measured on ``general`` (seed 13, 200 bodies per gender, settled by :mod:`pressurepose.sim.settle`),
+proximal -> bed: lateral starts that settled on their side 46 -> 61 of 106 (female), 38 -> 52 (male);
+supine and prone starts alike (87 -> 87 female, 85 -> 86 male); settle CPU per accepted body 0.41 -> 0.26 s
 (female), 0.62 -> 0.44 s (male). It changes which limb poses every partition draws.
 
 Finally the body is lowered so that its lowest capsule surface is ``clearance`` above the mattress:
@@ -58,15 +58,15 @@ the capsules are what the ragdoll drops. The mesh, which this stage does not ski
 reach up to ~3 cm lower than the capsules (measured over 180 bodies: its lowest vertex from -1.2 to
 +11 cm with the capsules at +1.5 cm).
 
-Fidelity to the public sampler (issue 15; ``benchmarks/bench_sampler_fidelity.py`` against its own
-2700 supine female poses, 22 sampled DOFs). Two departures drifted the marginals: the ``into_bed``
-test (then always on, 5 cm), which the public code does not have, rejected 41% of the limb
-candidates that passed height and bin (supine, a bent knee lowers the ankle up to 0.2 m below the
+Fidelity to the public sampler (``benchmarks/bench_sampler_fidelity.py`` against its own 2700
+supine female poses, 22 sampled DOFs). Two choices keep the marginals close. The ``into_bed`` test,
+which the public code does not have, is off by default: at 5 cm it rejects 41% of the limb
+candidates that pass height and bin (supine, a bent knee lowers the ankle up to 0.2 m below the
 hip, i.e. ~0.1 m below the back), raising the legs (hip flexion mean -52 deg against -38, W1 14
-deg); and bins counted along the body instead of the bed, which with yaw up to 30 deg moved ankles
-between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5 along the bed). Without them: mean W1
-4.3 -> 2.4 deg, and 1.5x the sampling rate. Dropping the test costs a little in settling (100
-attempts, seed 7, 50 per gender, :func:`pressurepose.sim.simulate.simulate_one`): general_supine
+deg). Bins count along the bed, not along the body: counted along the body, yaw up to 30 deg moves
+ankles between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5 along the bed). With the test on
+and bins along the body, mean W1 is 4.3 deg instead of 2.4, at 2/3 the sampling rate. Leaving the
+test out costs a little in settling (100 attempts, seed 7, 50 per gender, :func:`pressurepose.sim.simulate.simulate_one`): general_supine
 accepted 94 with it, 87 without (not settled 1 -> 5, posture changed 5 -> 7); general 62 and 60.
 
 The rest is the body model, not the procedure. SMPL's rest ankle (neutral, betas 0) lies ~5 cm

@@ -2,7 +2,7 @@
 
 Each cell is a box whose top is the mattress surface (z = 0 in the bed frame when unloaded) on a
 vertical slider with a spring ``k_A dx dy`` and a damper, so the mattress pushes back in proportion to
-both the area pressed and the depth (a Winkler foundation, REFERENCE section 5). Neighbouring cells
+both the area pressed and the depth (a Winkler foundation). Neighbouring cells
 are tied by spring tendons (the Pasternak shear layer of :class:`~pressurepose.sim.bed.BedSpec`,
 ``G dy/dx`` and ``G dx/dy``), which spreads a dent as a real mattress and sheet do and keeps the cell
 edges from acting as a bed of nails. Cells carry gravity compensation, so the unloaded mattress is flat

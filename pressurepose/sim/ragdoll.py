@@ -4,7 +4,7 @@ One MuJoCo body per capsule (the 20 SMPLify capsules of :mod:`pressurepose.body.
 kinematic tree; the root (pelvis) hangs on a free joint, knees and elbows on hinges, every other joint
 is a ball. Each body carries its capsule as a geom with the capsule's mass and inertia
 (:mod:`pressurepose.body.masses`), joint springs that rest at the *home pose* (arms at the sides,
-legs straight) and damping 15 x stiffness (paper appendix A.2, REFERENCE section 4).
+legs straight) and damping 15 x stiffness (paper appendix A.2).
 
 Frames. MuJoCo's world is the bed frame (z up). The body frames are the capsules' *rest joint
 frames* moved with the body: origin at the joint, axes parallel to the z-up world axes when the body
@@ -56,7 +56,8 @@ from pressurepose.errors import BadInput
 
 Q = Y_UP_TO_Z_UP
 
-# Mean body mass the joint stiffnesses are quoted for (REFERENCE section 4); neutral = their mean.
+# Mean body mass the joint stiffnesses are quoted for (Tozeren's averages, as in the paper's public code;
+# appendix A.2); neutral = their mean.
 MEAN_MASS_KG = {"female": 62.5, "male": 78.4, "neutral": (62.5 + 78.4) / 2}
 # Joint stiffness of the average body, N m / rad, by SMPL joint (paper appendix A.2). Collars count as
 # shoulders: the sampler splits one shoulder rotation 1 : 2 between collar and shoulder joint.
@@ -72,7 +73,7 @@ DAMPING_PER_STIFFNESS_S = 15.0
 # joints of the average body get this stiffness (N m/rad, scaled by mass like the others) and
 # damping of RELAXED_NECK_DAMPING_S x stiffness. The paper's springs hold the head in its standing
 # pose, and a supine head's back lies 2-5 cm above where the upper back has sunk to, so half the
-# supine heads left no imprint (issue 12; real: 99 %). A head of ~4.5 kg on a ~0.1 m lever pulls with
+# supine heads left no imprint (real, PMD-I: 99 %). A head of ~4.5 kg on a ~0.1 m lever pulls with
 # ~4 N m: soft enough springs let it fall onto the bed within the settle's first 0.5 s, and less
 # damping (15 x stiffness would be a 15 s time constant) lets it get there before the resting test.
 RELAXED_NECK_STIFFNESS = 10.0
@@ -82,8 +83,8 @@ NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
 # joints of the average body get this stiffness (N m/rad, scaled by mass; damping 15 x stiffness as
 # the paper's). The paper's springs hold the trunk in its standing curvature, so a supine trunk
 # rests as one rigid piece and carries its weight on the shoulders and calves as much as on the
-# pelvis (simulated pelvis band 24 % of the load against 29-31 % on PMD-I's supine people, issue
-# 12). Lying people do not hold their spine: with springs ten times softer the trunk bends and the
+# pelvis (simulated pelvis band 24 % of the load against 29-31 % on PMD-I's supine people).
+# Lying people do not hold their spine: with springs ten times softer the trunk bends and the
 # heavy pelvis sinks deepest, as on real mats (docs/physics.md, "Relaxed spine"; the value was
 # chosen among 200, 40, 20, 10 and 4 on PMD-I's region shares, benchmarks/bench_spine.py).
 RELAXED_SPINE_STIFFNESS = 20.0

@@ -12,7 +12,7 @@ Ranges (:class:`RandomizationRanges`) and why:
 * mattress stiffness: the bed's k_A times a log-uniform factor in [0.6, 1.6]. Foam mattresses span
   soft to firm (indentation force deflection roughly 2-3x from soft to firm), and the real data
   differ: on one mat the PMD experiment I supine images (13 people) cover 1217-1531 taxels, and
-  the issue's BodiTrak images were taken on a foam and an air mattress.
+  PMD experiment II's BodiTrak images were taken on a sponge and an air mattress.
 * tissue modulus: log-uniform 1.5-6 kPa, a factor of two about the default 3 kPa, inside the
   1-30 kPa that in vivo indentation of relaxed muscle and fat reports. On a bed with another
   modulus (``generate --bed``, e.g. one fitted by ``calibrate``) the range is scaled to it: a

@@ -114,7 +114,7 @@ _WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS,
 
 @dataclass(frozen=True)
 class SettleConfig:
-    """Settings of physics simulation #1 (defaults: the paper's procedure, REFERENCE sections 4-5).
+    """Settings of physics simulation #1 (defaults: the paper's procedure, appendix A.2).
 
     timestep_s, max_steps, zero_every: step length, step budget, velocity-zeroing period before the
         pelvis touches. rest_speed_m_s, rest_accel_m_s2, rest_hold_steps: the resting criterion and

@@ -17,7 +17,7 @@ def gallery_figure(result: dict, count: int = 3):
 
     from pressurepose.viz.mesh import draw_mesh
 
-    rows, est, x = result["rows"], result["estimate"], result["input"]
+    rows, est, x = result.rows, result.estimate, result.input
     order = np.argsort(-rows["contact_iou"], kind="stable")
     count = min(count, len(order) // 2 or 1)
     picks = [("best", int(i)) for i in order[:count]] + [("worst", int(i)) for i in order[::-1][:count]]

@@ -35,7 +35,7 @@ def write_pmd_i(root: Path, subjects=(1, 2), postures=(1, 2, 15), frames: int = 
     return root
 
 
-def write_pmd_ii(root: Path, subjects=(1,), files=("B1", "R1")) -> Path:
+def write_pmd_ii(root: Path, subjects=(1,), files=("B1", "C1")) -> Path:
     """PMD experiment II layout: 64 lines of 27 values, the feet at row 0; UTF-16 subject file."""
     root.mkdir(parents=True, exist_ok=True)
     (root / "subject-info-ii.csv").write_text("Subject,Height (cm),Weight (kg)\n" +

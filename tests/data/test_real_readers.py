@@ -28,14 +28,45 @@ def test_pmd_i_reads_labels_skips_blank_and_startup_frames(tmp_path):
 
 
 def test_pmd_ii_flips_feet_to_head_and_reads_utf16_subjects(tmp_path):
-    root = write_pmd_ii(tmp_path / "pmd2", subjects=(3,), files=("B1", "R2", "X1"))
+    root = write_pmd_ii(tmp_path / "pmd2", subjects=(3,), files=("B1", "C2", "X1"))
     assert detect_layout(root) == "pmd-ii"
-    r = read_real(root)
+    with pytest.warns(UserWarning, match="2 image"):  # X1 on both mattresses: no such letter in the dataset
+        r = read_real(root)
     assert len(r) == 6 and r.images.shape == (6, 64, 27) and r.mat.name == "boditrak_bt3510"
-    assert sorted(set(r.posture)) == ["", "right", "supine"]
+    assert sorted(set(r.posture)) == ["", "lateral", "supine"]
     assert r.height_m[0] == pytest.approx(1.83) and r.weight_kg[0] == pytest.approx(83)
     np.testing.assert_allclose(r.images[0], np.round(body_image(64, 27, seed=3)), atol=0.6)  # head at row 0 again
     assert r.images[0, :5].sum() < r.images[0, -10:].sum()  # head blob small, legs at the far end
+
+
+def test_pmd_ii_posture_letters_b_to_g(tmp_path):
+    """The dataset's letters: B and F supine (F7 on a raised bed head: not scored), C and D on one side
+    and the other (either side), E turned part-way onto a side on a support (either side, summarised
+    apart with the wedge postures), G unlabelled; another letter warns how many images go unscored."""
+    from pressurepose.eval.posture import posture_correct
+    from pressurepose.eval.real import is_wedge
+
+    codes = ("B1", "B10", "C2", "D3", "E1", "E6", "F2", "F7", "G1", "Q4")
+    root = write_pmd_ii(tmp_path / "pmd2", subjects=(1,), files=codes)
+    with pytest.warns(UserWarning, match=r"2 image\(s\) have a posture letter .* \(Q \(2\); known: B-G\)"):
+        r = read_real(root)
+    air = r.source.astype(str)
+    got = {c: (r.posture[i], r.detail[i]) for c in codes for i in range(len(r))
+           if air[i].endswith(f"Matrix_Air_{c}.txt")}
+    assert {c: p for c, (p, _) in got.items()} == {
+        "B1": "supine", "B10": "supine", "C2": "lateral", "D3": "lateral", "E1": "lateral", "E6": "lateral",
+        "F2": "supine", "F7": "inclined", "G1": "", "Q4": ""}
+    assert got["E6"][1].startswith("air mattress, E6: turned part-way")
+    wedge = is_wedge(r.detail)
+    assert sorted({d.split(",")[1].split(":")[0].strip() for d in r.detail[wedge]}) == ["E1", "E6"]
+    # a side-lying or turned body read on either side counts right, on its back not
+    e = r.posture[np.flatnonzero(wedge)[:3]]
+    assert posture_correct(e, ["left", "right", "supine"]).tolist() == [True, True, False]
+    import warnings
+
+    with warnings.catch_warnings():  # the dataset's own letters read without a warning
+        warnings.simplefilter("error")
+        read_real(write_pmd_ii(tmp_path / "known", files=("B2", "E3", "G3")))
 
 
 def test_labelled_folder_round_trip_and_custom_mat(tmp_path):

@@ -125,9 +125,9 @@ def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
                             weights=[60, 90], genders=["f", "m"])
     real = read_real(folder)
     res = evaluate_real(real, resolve_model(None), RealEvalConfig())
-    force = res["input"].sum((1, 2)) * MMHG_PA * 0.0286 ** 2
+    force = res.input.sum((1, 2)) * MMHG_PA * 0.0286 ** 2
     np.testing.assert_allclose(force, np.array([60, 90]) * 9.80665, rtol=1e-4)
-    assert res["summary"]["n_estimates"] == 2 and res["skipped"] == {"inclined_bed": 0, "weak_recording": 0}
+    assert res.summary["n_estimates"] == 2 and res.skipped == {"inclined_bed": 0, "weak_recording": 0}
 
 
 def test_wedge_postures_are_summarised_apart_as_well():
@@ -170,3 +170,55 @@ def test_contact_iou_threshold_defaults_to_the_models_contact_floor():
     assert contact_threshold(net(5.0), RealEvalConfig(contact_mmhg=1.0)) == 1.0
     with pytest.raises(BadInput):
         RealEvalConfig(contact_mmhg=-1.0)
+
+
+def test_a_frame_gets_the_same_estimate_from_evaluate_real_estimate_and_infer(tmp_path):
+    """One road: a PMD-I frame scored by evaluate-real, given to estimate() as a recording, and given
+    to `infer --mat` gives one body, to float tolerance."""
+    from pressurepose.cli import main
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.eval.real import RealEvalConfig, evaluate_real
+    from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
+    from tests.data.realfolders import write_pmd_i
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1,), postures=(1, 2), frames=5)  # subject 1 weighs 71 kg
+    net = resolve_model(None)
+    res = evaluate_real(read_real(root, frames="all"), net, RealEvalConfig(gender="m"))
+    path = root / "S1" / "2.txt"
+    mine = res.rows["source"] == str(path)
+    assert res.rows["frame"][mine].tolist() == [2, 3, 4]
+    est = estimate(path, "m", model=net, mat="fsa_softflex_2048", units="raw", weight_kg=71)
+    assert est.frame.tolist() == [2, 3, 4]
+    np.testing.assert_allclose(est.pressure, res.input[mine], atol=1e-5)
+    np.testing.assert_allclose(est.joints, res.estimate.joints[mine], atol=1e-4)
+    np.testing.assert_allclose(est.betas, res.estimate.betas[mine], atol=1e-4)
+    assert main(["infer", str(path), "--mat", "fsa_softflex_2048", "--units", "raw", "--weight-kg", "71",
+                 "--gender", "m", "--out", str(tmp_path / "est"), "--max-figures", "0"]) == 0
+    saved = json.loads((tmp_path / "est" / "estimate.json").read_text())["estimates"]
+    assert [r["frame"] for r in saved] == [2, 3, 4]
+    np.testing.assert_allclose([r["joints"] for r in saved], res.estimate.joints[mine], atol=1e-4)
+    # another weight is another input: the road does use it
+    heavy = estimate(path, "m", model=net, mat="fsa_softflex_2048", units="raw", weight_kg=142)
+    np.testing.assert_allclose(heavy.pressure.sum((1, 2)), 2 * est.pressure.sum((1, 2)), rtol=0.05)
+
+
+def test_metrics_json_is_strict_json(tmp_path):
+    """NaN (a subject without a measured height, a correlation over no spread) is written as null."""
+    import dataclasses
+
+    from pressurepose.eval.real import RealEvaluation
+    from pressurepose.mat import get_mat
+
+    ev = RealEvaluation(rows={}, estimate=None, input=np.zeros((0, 64, 27)),
+                        summary={"stature_mae_m": float("nan"), "per_subject": {"1": {"height_m": np.float32("nan"),
+                                                                                      "n": np.int64(3)}}},
+                        skipped={"inclined_bed": 0, "weak_recording": 0}, n_images=3, contact_mmhg=5.0,
+                        layout="pmd-ii", mat=get_mat("boditrak_bt3510"), units="raw", gain=None)
+    assert dataclasses.is_dataclass(ev)
+    text = ev.write_metrics(tmp_path / "metrics.json", data="x", mirror=False).read_text()
+    assert "NaN" not in text
+    m = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    assert m["stature_mae_m"] is None and m["per_subject"]["1"] == {"height_m": None, "n": 3}
+    assert m["data"] == "x" and m["mat"] == "boditrak_bt3510" and m["n_images"] == 3 and m["gain"] is None

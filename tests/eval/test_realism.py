@@ -125,7 +125,7 @@ def test_realism_verb_end_to_end(tmp_path):
                  "--out", str(out)]) == 0
     rep = json.loads((out / "realism.json").read_text())
     sup = rep["postures"]["supine"]
-    # issue 12's goals, judged on the headline: head imprint 2/3 < 0.8 is not met
+    # the realism targets, judged on the headline: head imprint 2/3 < 0.8 is not met
     goals = {v["goal"]: v for v in rep["goals"] if v["posture"] == "supine"}
     assert goals["head imprint rate"]["value"] == pytest.approx(2 / 3) and not goals["head imprint rate"]["met"]
     assert goals["contact area ratio"]["value"] == pytest.approx(rep["headline"][0]["area_ratio"])

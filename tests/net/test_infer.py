@@ -126,3 +126,54 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "both --female and --male" in err and "not the one this model was trained with" in err
     assert "NaN" in err and "no dataset 'pressure'" in err and "does not exist" in err and "--gender is needed" in err
+
+
+def test_estimate_warns_as_the_cli_does(model_path):
+    data = toy_dataset(2, grid=GRID)
+    img = data["pressure"].numpy().copy()
+    img[1] *= 150.0 / img[1].max()  # peak 150 mmHg: above the sensor's 100
+    with pytest.warns(UserWarning, match=r"pressure: image\(s\) 1 read above the sensor's range \(peak 150"):
+        estimate(img, "f", model=model_path)
+    img[0] = 0
+    with pytest.warns(UserWarning) as caught:
+        estimate(img, "f", model=model_path)
+    said = sorted(str(w.message).split(";")[0] for w in caught)
+    assert said == ["pressure: image(s) 0 are empty (every reading 0)",
+                    "pressure: image(s) 1 read above the sensor's range (peak 150 > 100 mmHg)"]
+    with pytest.raises(BadInput, match="far outside the sensor's range"):
+        estimate(img * 20, "f", model=model_path)
+    with pytest.raises(BadInput, match="give its mat"):
+        estimate(img, "f", model=model_path, units="raw", weight_kg=70)
+
+
+def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_path, capsys):
+    """A recording on the BodiTrak mat in raw units, weight-normalised and resampled onto the model's
+    16 x 16 mat; the model input carries the weight, and infer writes every frame and says so."""
+    from pressurepose.data.resample import MMHG_PA
+    from tests.data.realfolders import body_image
+
+    frames = np.stack([body_image(64, 27, seed=s, scale=2.0) for s in range(7)])
+    est = estimate(frames, "m", model=model_path, mat="boditrak_bt3510", units="raw", weight_kg=70)
+    assert len(est) == 7 and est.frame.tolist() == list(range(7)) and est.pressure.shape == (7, 16, 16)
+    force = est.pressure.sum((1, 2)) * MMHG_PA * GRID.taxel_area_m2  # the model's mat covers the BodiTrak's
+    np.testing.assert_allclose(force, 70 * 9.80665, rtol=1e-4)
+    flipped = estimate(frames[:, ::-1], "m", model=model_path, mat="boditrak_bt3510", units="raw", weight_kg=70,
+                       head_row="last")
+    np.testing.assert_allclose(flipped.joints, est.joints, atol=1e-5)
+    np.save(tmp_path / "rec.npy", frames)
+    out = tmp_path / "est"
+    assert main(["infer", str(tmp_path / "rec.npy"), "--mat", "boditrak_bt3510", "--units", "raw", "--weight-kg",
+                 "70", "--gender", "m", "--model", str(model_path), "--out", str(out), "--max-figures", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert "7 estimate(s)" in printed and f"... and 2 more (all in {out / 'estimate.json'})" in printed
+    saved = json.loads((out / "estimate.json").read_text())["estimates"]
+    assert [r["frame"] for r in saved] == list(range(7))
+    np.testing.assert_allclose([r["joints"] for r in saved], est.joints, atol=1e-5)
+    assert sorted(p.name for p in out.glob("*.png")) == ["estimate_000.png", "estimate_001.png"]
+    # without a weight or a gain, with --units but no --mat, or --mat without --units: a clear error
+    for extra, said in ((["--mat", "boditrak_bt3510", "--units", "raw"], "weight (kg) or a calibration gain"),
+                        (["--units", "raw", "--weight-kg", "70"], "give --mat too"),
+                        (["--mat", "boditrak_bt3510"], "--mat needs --units")):
+        assert main(["infer", str(tmp_path / "rec.npy"), "--gender", "m", "--model", str(model_path),
+                     "--out", str(tmp_path / "bad"), *extra]) == 2
+        assert said in capsys.readouterr().err

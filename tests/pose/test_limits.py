@@ -1,4 +1,4 @@
-"""Joint limits: the reference's ranges mean what the sampler says on a real body (elbows bend the
+"""Joint limits: the public code's ranges mean what the sampler says on a real body (elbows bend the
 forearm forward, knees bend backward, hips flex forward, shoulders lift), the 1 : 2 collar/shoulder
 split, and the hands-behind-head widening."""
 

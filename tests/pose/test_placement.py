@@ -103,7 +103,7 @@ def test_lateral_bodies_spread_wider_across_the_bed():
 
 
 def test_fuller_collision_capsules_reject_more_arms_across_the_chest(female):
-    """collision_radius_scale widens the capsules of the self-collision tests only (issue 15: the
+    """collision_radius_scale widens the capsules of the self-collision tests only (the
     public sampler's capsules are fuller than ours): more candidates are rejected for collisions and
     fewer wrists end over the chest, with the same seed."""
     from benchmarks.bench_sampler_fidelity import geometry_shares

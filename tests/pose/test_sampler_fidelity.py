@@ -1,4 +1,4 @@
-"""The supine sampler's joint-angle marginals against the public sampler's own output (issue 15).
+"""The supine sampler's joint-angle marginals against the public sampler's own output.
 
 The reference file is read only if it is found beside the checkout (see
 benchmarks/bench_sampler_fidelity.py, which also documents why unpickling it is acceptable)."""

@@ -30,7 +30,7 @@ from pressurepose.sim.stiffness import fit_settle_stiffness
 G = 9.81
 BED = get_bed()
 FAST = SettleConfig()
-FINE = dataclasses.replace(FAST, coarse_factor=1.0)  # 0.01 s throughout, as before session 12
+FINE = dataclasses.replace(FAST, coarse_factor=1.0)  # 0.01 s throughout: the step never coarsens
 COARSE = dataclasses.replace(FAST, coarse_after_steps=10)  # the step doubles soon after touching
 BETAS = np.zeros(10)
 

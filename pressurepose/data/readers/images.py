@@ -1,4 +1,5 @@
-"""Real pressure images with what is known of the people on them: the one type every reader returns."""
+"""Real pressure images with what is known of the people on them: the one type every reader returns,
+and the one road from it to a model's input (:meth:`RealImages.model_input`)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.data.realprep import prepare
 from pressurepose.errors import BadInput
 from pressurepose.mat import MatSpec
 
@@ -13,7 +15,7 @@ from pressurepose.mat import MatSpec
 # '' = not known (not scored for posture)
 POSTURE_LABELS = ("supine", "left", "right", "lateral", "prone", "inclined", "")
 FRAME_MODES = ("one", "all")
-LAYOUTS = ("pmd-i", "pmd-ii", "labelled")
+LAYOUTS = ("pmd-i", "pmd-ii", "labelled", "recording")
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +47,26 @@ class RealImages:
 
     def __len__(self) -> int:
         return int(self.images.shape[0])
+
+    def model_input(self, dst: MatSpec, zero_load=None) -> np.ndarray:
+        """(N, dst.rows, dst.cols) float32 mmHg: these images as the input of a model on mat ``dst``.
+
+        The one road from a real recording to a model (``evaluate-real``, ``realism``, ``infer`` and
+        ``estimate(..., mat=...)`` all take it): the readers have chosen the frames and turned row 0
+        to the head end; :func:`pressurepose.data.realprep.prepare` then removes the baseline
+        (``zero_load``: the empty mat's readings, or None), repairs stuck and dead taxels, turns raw
+        readings into mmHg (by ``gain``, else by each image's ``weight_kg``: its total force set to
+        the body's weight), resamples onto ``dst`` keeping the force and clips to ``dst``'s range.
+        """
+        if self.units == "raw" and self.gain is None:
+            missing = ~(np.isfinite(self.weight_kg) & (self.weight_kg > 0))
+            if missing.any():
+                raise BadInput(f"{int(missing.sum())} of {len(self)} raw image(s) (e.g. {self.source[missing][0]}) have no "
+                               f"body weight and there is no calibration gain: raw readings become mmHg either by "
+                               f"the gain (mmHg per raw unit) or by the weight, which sets the image's total load "
+                               f"(sum of p x taxel area) to the body's m g")
+        return prepare(self.images, self.mat, self.units, dst, weight_kg=self.weight_kg, gain=self.gain,
+                       zero_load=zero_load)
 
     def select(self, keep) -> "RealImages":
         """The images where ``keep`` (N,) bool is True (or at the given indices)."""

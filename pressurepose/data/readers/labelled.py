@@ -19,17 +19,17 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.data.readers.images import RealImages
+from pressurepose.data.realprep import UNITS
 from pressurepose.errors import BadInput
 from pressurepose.files import numpy_load_problem
 from pressurepose.mat import MatSpec, custom_mat, get_mat
 
 REQUIRED = ("posture", "height_m", "weight_kg")
 POSTURES = ("supine", "left", "right", "lateral", "prone")
-UNITS = ("mmHg", "raw")
 
 
-def read_mat_json(path: str | Path) -> tuple[MatSpec, str, float | None]:
-    """(mat, units, gain) from a ``mat.json``."""
+def read_mat_record(path: str | Path) -> dict:
+    """The JSON object of a ``mat.json``; BadInput when the file is missing or not a JSON object."""
     path = Path(path)
     if not path.is_file():
         raise BadInput(f"{path} does not exist; expected a mat.json with preset (or rows, cols, pitch_m) and units")
@@ -39,22 +39,39 @@ def read_mat_json(path: str | Path) -> tuple[MatSpec, str, float | None]:
         raise BadInput(f"{path}: not readable JSON ({exc})") from None
     if not isinstance(d, dict):
         raise BadInput(f"{path}: expected a JSON object")
+    return d
+
+
+def mat_of_record(d: dict, path: str | Path) -> MatSpec:
+    """The mat a ``mat.json`` object (read from ``path``) names: ``preset``, or ``rows``, ``cols``,
+    ``pitch_m`` and optionally ``pitch_col_m``."""
     try:
         if "preset" in d:
-            mat = get_mat(d["preset"])
-        elif {"rows", "cols", "pitch_m"} <= set(d):
-            mat = custom_mat(d["rows"], d["cols"], d["pitch_m"], d.get("pitch_col_m"))
-        else:
-            raise BadInput("expected 'preset' or 'rows', 'cols' and 'pitch_m'")
+            return get_mat(d["preset"])
+        if {"rows", "cols", "pitch_m"} <= set(d):
+            return custom_mat(d["rows"], d["cols"], d["pitch_m"], d.get("pitch_col_m"))
+        raise BadInput("expected 'preset' or 'rows', 'cols' and 'pitch_m'")
     except BadInput as exc:
         raise BadInput(f"{path}: unknown mat: {exc}") from None
+
+
+def gain_of_record(d: dict, path: str | Path) -> float | None:
+    """A ``mat.json`` object's ``gain`` (mmHg per raw unit), or None."""
+    gain = d.get("gain")
+    if gain is not None and (isinstance(gain, bool) or not isinstance(gain, (int, float)) or not math.isfinite(gain)
+                             or gain <= 0):
+        raise BadInput(f"{path}: gain is {gain!r}; expected a positive number of mmHg per raw unit")
+    return None if gain is None else float(gain)
+
+
+def read_mat_json(path: str | Path) -> tuple[MatSpec, str, float | None]:
+    """(mat, units, gain) from a ``mat.json``."""
+    d = read_mat_record(path)
+    mat = mat_of_record(d, path)
     units = d.get("units")
     if units not in UNITS:
         raise BadInput(f"{path}: units is {units!r}; expected one of {', '.join(UNITS)}")
-    gain = d.get("gain")
-    if gain is not None and (not isinstance(gain, (int, float)) or not math.isfinite(gain) or gain <= 0):
-        raise BadInput(f"{path}: gain is {gain!r}; expected a positive number of mmHg per raw unit")
-    return mat, units, None if gain is None else float(gain)
+    return mat, units, gain_of_record(d, path)
 
 
 def read_labels(path: str | Path) -> list[dict]:

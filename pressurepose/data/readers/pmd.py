@@ -25,9 +25,15 @@ frames; two mattresses; the FEET at row 0, flipped here)::
     subject-info-ii.csv                     UTF-16 text: subject, height, weight (columns by name)
     S<n>/{Sponge,Air}_Mat/Matrix_{Sponge,Air}_<letter><k>.txt   64 lines of 27 space-separated values
 
-The posture letter is read as B (back) supine, R right side, L left side, P prone; other letters
-are kept in ``detail`` and not scored for posture. This layout is built from the dataset's
-description alone (the project keeps experiment II apart as an independent test).
+Posture letters (the dataset's description; :func:`pmd_ii_posture`): B1-B10 supine with different
+arm and leg positions; C1-C3 and D1-D3 lying on one side and on the other ('lateral': which letter is
+which side is not certain, so either side counts); E1-E6 turned part-way onto a side on a support
+('lateral', and ``detail`` names a wedge: scored as turned toward either side and summarised apart,
+as PMD-I's wedge postures are, :func:`pressurepose.eval.real.is_wedge`); F1-F6 supine variations;
+F7 supine with the head of the bed raised ('inclined': not scored, as PMD-I's 15-17); G1-G3
+unlabelled extras (''). A file with another letter is kept unscored, with a warning that counts
+them. This layout is built from the dataset's description alone (the project keeps experiment II
+apart as an independent test).
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from __future__ import annotations
 import csv
 import io
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -54,7 +61,16 @@ PMD_I_POSTURES: dict[int, tuple[str, str]] = {
     15: ("inclined", "supine, bed head 30 deg"), 16: ("inclined", "supine, bed head 45 deg"),
     17: ("inclined", "supine, bed head 60 deg"),
 }
-PMD_II_LETTERS = {"B": "supine", "R": "right", "L": "left", "P": "prone"}
+# letter -> (posture label, description): module docstring
+PMD_II_LETTERS: dict[str, tuple[str, str]] = {
+    "B": ("supine", "supine, arm and leg variation"),
+    "C": ("lateral", "side lying (one side)"),
+    "D": ("lateral", "side lying (the other side)"),
+    "E": ("lateral", "turned part-way onto a side, propped (as on a wedge)"),
+    "F": ("supine", "supine variation"),
+    "G": ("", "unlabelled extra"),
+}
+PMD_II_INCLINED = ("F", 7)  # F7: the head of the bed raised
 PMD_I_SHAPE, PMD_II_SHAPE = (64, 32), (64, 27)
 
 
@@ -105,9 +121,12 @@ def _subject_folders(root: Path) -> list[tuple[str, Path]]:
     return sorted(((str(int(n)), p) for n, p in found), key=lambda t: int(t[0]))
 
 
-def read_pmd_i_file(path: str | Path) -> np.ndarray:
-    """All frames (F, 64, 32) of one experiment-I file, as stored."""
+def read_frame_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
+    """All frames (F, rows, cols) of a text recording holding one frame a line (``rows * cols``
+    readings separated by tabs or spaces, row-major; blank lines skipped), as stored: PMD
+    experiment I's layout."""
     path = Path(path)
+    rows, cols = shape
     frames = []
     for k, line in enumerate(_read_text(path).splitlines(), start=1):
         if not line.strip():
@@ -116,12 +135,18 @@ def read_pmd_i_file(path: str | Path) -> np.ndarray:
             values = np.array(line.split(), dtype=np.float64)
         except ValueError:
             raise BadInput(f"{path} line {k}: not all readings are numbers") from None
-        if values.size != PMD_I_SHAPE[0] * PMD_I_SHAPE[1]:
-            raise BadInput(f"{path} line {k} has {values.size} readings; expected 2048 (one 64 x 32 frame)")
-        frames.append(values.reshape(PMD_I_SHAPE))
+        if values.size != rows * cols:
+            raise BadInput(f"{path} line {k} has {values.size} readings; expected {rows * cols} (one {rows} x {cols} "
+                           f"frame)")
+        frames.append(values.reshape(shape))
     if not frames:
         raise BadInput(f"{path} holds no frames")
     return np.stack(frames)
+
+
+def read_pmd_i_file(path: str | Path) -> np.ndarray:
+    """All frames (F, 64, 32) of one experiment-I file, as stored."""
+    return read_frame_lines(path, PMD_I_SHAPE)
 
 
 def read_pmd_i(root: str | Path, frames: str = "one") -> RealImages:
@@ -158,12 +183,13 @@ def read_pmd_i(root: str | Path, frames: str = "one") -> RealImages:
 _PMD_II_NAME = re.compile(r"^Matrix_(Sponge|Air)_([A-Za-z]+)(\d+)$")
 
 
-def read_pmd_ii_file(path: str | Path) -> np.ndarray:
-    """One experiment-II image (64, 27) as stored (feet at row 0)."""
+def read_image_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
+    """One image (rows, cols) from a text file of ``rows`` lines of ``cols`` space-separated readings
+    (blank lines skipped), as stored: PMD experiment II's layout."""
     path = Path(path)
     rows = [ln.split() for ln in _read_text(path).splitlines() if ln.strip()]
-    if len(rows) != PMD_II_SHAPE[0] or any(len(r) != PMD_II_SHAPE[1] for r in rows):
-        raise BadInput(f"{path}: expected {PMD_II_SHAPE[0]} lines of {PMD_II_SHAPE[1]} space-separated readings, got "
+    if len(rows) != shape[0] or any(len(r) != shape[1] for r in rows):
+        raise BadInput(f"{path}: expected {shape[0]} lines of {shape[1]} space-separated readings, got "
                        f"{len(rows)} lines of {sorted({len(r) for r in rows})} values")
     try:
         return np.array(rows, dtype=np.float64)
@@ -171,11 +197,25 @@ def read_pmd_ii_file(path: str | Path) -> np.ndarray:
         raise BadInput(f"{path}: not all readings are numbers") from None
 
 
+def read_pmd_ii_file(path: str | Path) -> np.ndarray:
+    """One experiment-II image (64, 27) as stored (feet at row 0)."""
+    return read_image_lines(path, PMD_II_SHAPE)
+
+
+def pmd_ii_posture(letter: str, number: int) -> tuple[str, str] | None:
+    """(posture label, description) of an experiment-II posture code such as ``E3`` (module
+    docstring); None for a letter the dataset does not use."""
+    letter = letter.upper()
+    if (letter, number) == PMD_II_INCLINED:
+        return "inclined", "supine, head of the bed raised"
+    return PMD_II_LETTERS.get(letter)
+
+
 def read_pmd_ii(root: str | Path) -> RealImages:
     """PMD experiment II: every ``S<n>/{Sponge,Air}_Mat/Matrix_*.txt``, flipped to the head at row 0."""
     root = Path(root)
     info = read_subject_info(root / "subject-info-ii.csv", encoding="utf-16")
-    records = []
+    records, unknown = [], {}
     for subject, folder in _subject_folders(root):
         if subject not in info:
             raise BadInput(f"{folder}: subject {subject} is not in {root / 'subject-info-ii.csv'}")
@@ -185,10 +225,18 @@ def read_pmd_ii(root: str | Path) -> RealImages:
                 if m is None or m.group(1) != mattress:
                     raise BadInput(f"{path}: expected a name Matrix_{mattress}_<letter><number>.txt")
                 img = orient(read_pmd_ii_file(path), head_row0=False)
-                letter = m.group(2).upper()
-                records.append(dict(image=img, posture=PMD_II_LETTERS.get(letter, ""),
-                                    detail=f"{mattress.lower()} mattress, {letter}{m.group(3)}", subject=subject,
-                                    source=str(path), frame=-1, **info[subject]))
+                code = f"{m.group(2).upper()}{int(m.group(3))}"
+                known = pmd_ii_posture(m.group(2), int(m.group(3)))
+                if known is None:
+                    unknown[m.group(2).upper()] = unknown.get(m.group(2).upper(), 0) + 1
+                posture, what = known or ("", "posture letter not in the dataset's description")
+                records.append(dict(image=img, posture=posture, detail=f"{mattress.lower()} mattress, {code}: {what}",
+                                    subject=subject, source=str(path), frame=-1, **info[subject]))
     if not records:
         raise BadInput(f"{root}: no S<n>/{{Sponge,Air}}_Mat/Matrix_*.txt files")
+    if unknown:
+        letters = ", ".join(f"{k} ({n})" for k, n in sorted(unknown.items()))
+        warnings.warn(f"{root}: {sum(unknown.values())} image(s) have a posture letter the PMD experiment-II "
+                      f"description does not use ({letters}; known: B-G); they are kept but not scored for posture",
+                      stacklevel=2)
     return make_real(records, get_mat("boditrak_bt3510"), "raw", "pmd-ii")

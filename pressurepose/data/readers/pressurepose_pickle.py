@@ -1,7 +1,7 @@
 """The official PressurePose release (Bodies at Rest): read its pickles, convert them to this project's
 datasets, and export ours back to its format.
 
-Synthetic files are Python-2 pickles of a dict of per-sample lists (REFERENCE section 2): ``images``
+Synthetic files are Python-2 pickles of a dict of per-sample lists (the release's layout): ``images``
 (N x 1728, a 64 x 27 image row-major, mmHg), ``markers_xyz_m`` (N x 72, 24 joints), ``root_xyz_shift``
 (N x 3, root joint position), ``joint_angles`` (N x 72, SMPL axis-angle), ``body_shape`` (N x 10),
 ``body_mass`` (kg), ``body_height`` (m), ``bed_angle_deg``, ``mesh_depth`` (N x 64 x 27 int, mm)

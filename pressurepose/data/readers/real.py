@@ -7,7 +7,8 @@
 * a generic labelled folder (``images.npy``, ``labels.csv``, ``mat.json``): :mod:`.labelled`.
 
 Images come back as recorded (raw units or mmHg, on their own mat) but turned so that row 0 is the
-head end; :func:`pressurepose.data.realprep.prepare` makes them model input.
+head end; :meth:`RealImages.model_input` makes them model input. A bare recording without labels
+(one person's frames, e.g. for ``infer``) is read by :func:`.recording.read_recording`.
 """
 
 from __future__ import annotations

@@ -1,0 +1,180 @@
+"""A bare recording from any mat, without labels: frames of one person, read as :class:`RealImages`.
+
+``read_recording(source, mat, units, weight_kg=None, gain=None, head_row="first")`` reads
+
+* a ``.npy`` file: one frame (rows, cols) or several (F, rows, cols), every one kept;
+* a ``.csv`` file: one frame, ``rows`` lines of ``cols`` comma-separated readings;
+* a text recording (``.txt``): one frame a line, ``rows * cols`` readings separated by tabs or
+  spaces (PhysioNet PMD experiment I's layout; the frames that carry the body are kept, as
+  ``evaluate-real --frames all`` keeps them: :func:`pressurepose.data.realprep.valid_frames`), or one
+  frame as ``rows`` lines of ``cols`` readings (PMD experiment II's layout);
+* a numpy array (rows, cols) or (F, rows, cols), every frame kept.
+
+``mat`` is a preset name (:func:`pressurepose.mat.get_mat`), a ``mat.json`` (as in a labelled folder,
+:mod:`.labelled`: ``preset``, or ``rows``, ``cols``, ``pitch_m`` and optionally ``pitch_col_m``;
+its ``units``, if given, must agree, and its ``gain`` is used when no weight or gain is given) or
+a :class:`~pressurepose.mat.MatSpec`. ``units``: 'raw' (the mat's own readings: they need the
+person's ``weight_kg`` or a calibration ``gain`` to become mmHg) or 'mmHg'. ``head_row``: 'first'
+when row 0 of the frames is at the head end, 'last' when it is at the feet (then the rows are
+flipped). The frames then reach a model by :meth:`RealImages.model_input`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from pressurepose.data.readers.images import RealImages
+from pressurepose.data.readers.labelled import (
+    gain_of_record,
+    mat_of_record,
+    read_mat_record,
+)
+from pressurepose.data.readers.pmd import read_frame_lines, read_image_lines
+from pressurepose.data.realprep import UNITS, orient, valid_frames
+from pressurepose.errors import BadInput
+from pressurepose.files import read_npy
+from pressurepose.mat import MATS, MatSpec, get_mat
+
+HEAD_ROWS = ("first", "last")
+RECORDING_SUFFIXES = (".npy", ".csv", ".txt")
+
+
+def resolve_mat(mat) -> tuple[MatSpec, dict]:
+    """(the mat, its ``mat.json`` object or {}) from a MatSpec, a preset name or a mat.json path."""
+    if isinstance(mat, MatSpec):
+        return mat, {}
+    name = str(mat)
+    if name.strip().lower() in MATS:
+        return get_mat(name), {}
+    path = Path(name)
+    if path.suffix.lower() == ".json" or path.is_file():
+        d = read_mat_record(path)
+        return mat_of_record(d, path), d
+    raise BadInput(f"mat {name!r} is neither a preset ({', '.join(sorted(MATS))}) nor a mat.json file")
+
+
+def read_array_file(path: str | Path, what: str = "pressure") -> np.ndarray:
+    """The numbers of a ``.npy`` file (any shape) or a ``.csv`` file (R rows of C comma-separated
+    values, (R, C)); BadInput naming ``what`` and the file otherwise."""
+    path = Path(path)
+    if path.is_dir():
+        raise BadInput(f"{what} file {str(path)!r} is a folder; expected a file")
+    if not path.is_file():
+        raise BadInput(f"{what} file {str(path)!r} does not exist")
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        return read_npy(path, what)
+    if suffix != ".csv":
+        raise BadInput(f"{what} file {str(path)!r}: expected .npy or .csv")
+    try:
+        with warnings.catch_warnings():  # an empty file: our error below, not numpy's warning
+            warnings.simplefilter("ignore", UserWarning)
+            arr = np.loadtxt(path, delimiter=",", ndmin=2)
+    except (ValueError, OSError) as exc:
+        raise BadInput(f"{what} file {str(path)!r} could not be read ({exc})") from None
+    if arr.size == 0:
+        raise BadInput(f"{what} file {str(path)!r} holds no numbers; expected R rows of C comma-separated values")
+    return arr
+
+
+def _text_frames(path: Path, shape: tuple[int, int]) -> np.ndarray:
+    """(F, rows, cols) from a text recording: one frame a line, or one frame as rows lines."""
+    try:
+        first = next((ln for ln in path.read_text(encoding="utf-8").splitlines() if ln.strip()), "")
+    except (OSError, UnicodeError) as exc:
+        raise BadInput(f"{path}: cannot read as utf-8 text ({exc})") from None
+    n = len(first.split())
+    if n == shape[0] * shape[1]:
+        return read_frame_lines(path, shape)
+    if n == shape[1]:
+        return read_image_lines(path, shape)[None]
+    raise BadInput(f"{path}: its first line has {n} readings; for a {shape[0]} x {shape[1]} mat expected one frame a "
+                   f"line ({shape[0] * shape[1]} readings) or one frame as {shape[0]} lines of {shape[1]} readings")
+
+
+def _frames(source, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, str]:
+    """(frames (F, rows, cols) as stored, their indices in the source, the source's name)."""
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        if path.suffix.lower() == ".txt":
+            if not path.is_file():
+                raise BadInput(f"recording {str(path)!r} does not exist")
+            stack = _text_frames(path, shape)
+            if len(stack) == 1:
+                return stack, np.zeros(1, int), str(path)
+            ok = valid_frames(stack)
+            if not ok.any():
+                raise BadInput(f"recording {str(path)!r}: none of its {len(stack)} frames carries a body (all blank, "
+                               f"or every frame's load far from the others')")
+            return stack[ok], np.flatnonzero(ok), str(path)
+        if path.suffix.lower() not in RECORDING_SUFFIXES:
+            raise BadInput(f"recording {str(path)!r}: expected {', '.join(RECORDING_SUFFIXES)}")
+        arr, name = read_array_file(path, "recording"), str(path)
+    else:
+        arr = np.asarray(source.detach().cpu() if hasattr(source, "detach") else source)
+        name = "the recording"
+        if arr.dtype.kind not in "fiub":
+            raise BadInput(f"{name} has dtype {arr.dtype}; expected numbers")
+    arr = np.asarray(arr, dtype=np.float64)
+    if arr.ndim == 2:
+        arr = arr[None]
+    return arr, np.arange(len(arr)), name
+
+
+def read_recording(source, mat, units: str, weight_kg=None, gain: float | None = None,
+                   head_row: str = "first") -> RealImages:
+    """A bare recording (module docstring) as RealImages: (F, rows, cols) float32 frames, row 0 at
+    the head end, in ``units`` on ``mat``; ``frame`` the index of each frame in the source, ``weight_kg``
+    (F,) the person's weight (NaN when not given), ``gain`` the calibration; posture, height and
+    gender unknown. BadInput for a wrong shape, NaN or negative readings, unknown units or head
+    row, or raw readings with neither a weight nor a gain (nothing turns them into mmHg)."""
+    if units not in UNITS:
+        raise BadInput(f"units {units!r} is not known; expected raw (the mat's own readings) or mmHg")
+    if head_row not in HEAD_ROWS:
+        raise BadInput(f"head row {head_row!r} is not known; expected first (row 0 at the head end) or last "
+                       f"(row 0 at the feet)")
+    spec, record = resolve_mat(mat)
+    if record.get("units") not in (None, units):
+        raise BadInput(f"the recording's units are {units!r} but its mat.json says {record['units']!r}")
+    if units == "mmHg" and (weight_kg is not None or gain is not None):
+        raise BadInput("a weight or a gain turns raw readings into mmHg; these readings are in mmHg already "
+                       "(give units raw, or leave the weight and the gain out)")
+    if weight_kg is not None and gain is not None:
+        raise BadInput("give the person's weight or a calibration gain, not both: each alone turns raw readings "
+                       "into mmHg")
+    if gain is not None and (isinstance(gain, bool) or not isinstance(gain, (int, float, np.floating))
+                             or not np.isfinite(gain) or gain <= 0):
+        raise BadInput(f"gain is {gain!r}; expected a positive number of mmHg per raw unit")
+    if units == "raw" and weight_kg is None and gain is None:
+        gain = gain_of_record(record, mat)
+        if gain is None:
+            raise BadInput("raw readings need the person's weight (kg) or a calibration gain (mmHg per raw unit) to "
+                           "become mmHg, the unit the model reads: the weight sets each frame's total load "
+                           "(sum of p x taxel area) to the body's m g, as the body rests on the mat")
+    frames, index, name = _frames(source, spec.shape)
+    if frames.ndim != 3 or frames.shape[1:] != spec.shape or len(frames) == 0:
+        hint = (" (rows and columns swapped? row 0 runs across the bed at the head or the feet)"
+                if frames.ndim == 3 and frames.shape[1:] == spec.shape[::-1] else "")
+        raise BadInput(f"{name} has shape {frames.shape}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
+                       f"({spec.rows}, {spec.cols}) or (F, {spec.rows}, {spec.cols}){hint}")
+    if not np.all(np.isfinite(frames)) or np.any(frames < 0):
+        raise BadInput(f"{name}: readings must be finite and >= 0")
+    n = len(frames)
+    if weight_kg is None:
+        weight = np.full(n, np.nan)
+    else:
+        try:
+            weight = np.broadcast_to(np.asarray(weight_kg, dtype=np.float64), (n,)).copy()
+        except ValueError:
+            raise BadInput(f"weight_kg has shape {np.shape(weight_kg)}; expected one weight, or one per frame "
+                           f"({n})") from None
+        if not np.all(np.isfinite(weight) & (weight > 0)):
+            raise BadInput(f"weight {weight_kg!r} is not a positive number of kg")
+    empty = lambda value: np.full(n, value)  # noqa: E731
+    return RealImages(images=orient(frames, head_row0=head_row == "first").astype(np.float32), posture=empty(""),
+                      detail=empty(""), height_m=empty(np.nan), weight_kg=weight, gender=empty(""), subject=empty(""),
+                      source=empty(name), frame=np.asarray(index, dtype=int), mat=spec, units=units,
+                      layout="recording", gain=None if gain is None else float(gain))
