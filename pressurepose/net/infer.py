@@ -21,6 +21,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
+from pressurepose.body.sites import SITES, SiteLoads, site_loads, vertex_pressure, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput
@@ -46,7 +47,10 @@ class Estimate:
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
-    given on the model's mat).
+    given on the model's mat); sites: the load on each body site under the estimated body
+    (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
+    :data:`~pressurepose.body.sites.SITES`); vertex_pressure (B, V) mmHg on the body's surface
+    (:func:`~pressurepose.body.sites.vertex_pressure`). Both None when not asked for.
     """
 
     betas: np.ndarray
@@ -63,6 +67,8 @@ class Estimate:
     grid: MatSpec
     mirror: bool = False
     frame: np.ndarray | None = None
+    sites: SiteLoads | None = None
+    vertex_pressure: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
@@ -73,10 +79,22 @@ class Estimate:
         return [{**frame[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
+    def sites_record(self) -> dict:
+        """The per-site loads as a strict-JSON-ready dict: one entry per image (its frame, the most
+        loaded site and every site's peak_mmhg, mean_mmhg, area_cm2 and share)."""
+        if self.sites is None:
+            raise BadInput("this estimate has no site loads (estimate(..., sites=True) computes them)")
+        images = []
+        for i, (rec, top) in enumerate(zip(self.sites.to_records(), self.sites.most_loaded())):
+            frame = {} if self.frame is None else {"frame": int(self.frame[i])}
+            images.append({"image": i, **frame, "most_loaded": top or None, "sites": rec})
+        return {"units": "peak and mean mmHg over the site's loaded taxels, contact area cm^2, share of the "
+                         "image's load", "sites": list(SITES), "images": images}
+
     def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
-        """Write estimate.json, estimate.npz and one mesh per image (``mesh_000.ply`` or ``.obj``),
-        removing the numbered meshes an earlier estimate left in ``out_dir``. Returns the paths
-        written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
+        """Write estimate.json, estimate.npz, sites.json (with site loads) and one mesh per image
+        (``mesh_000.ply`` or ``.obj``), removing the numbered meshes an earlier estimate left in
+        ``out_dir``. Returns the paths written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
         import trimesh
 
         if mesh_format not in ("ply", "obj"):
@@ -89,7 +107,12 @@ class Estimate:
         save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
                         vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
                         gender=np.array(self.gender),
-                        **({} if self.frame is None else {"frame": np.asarray(self.frame, dtype=np.int64)}))
+                        **({} if self.frame is None else {"frame": np.asarray(self.frame, dtype=np.int64)}),
+                        **({} if self.sites is None else {"vertex_pressure": self.vertex_pressure.astype(np.float32),
+                                                          "taxel_site": self.sites.taxel_site}))
+        if self.sites is not None:
+            paths.append(out / "sites.json")
+            write_json_atomic(paths[-1], self.sites_record())
         for i in range(len(self)):
             p = out / f"mesh_{i:03d}.{mesh_format}"
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
@@ -282,7 +305,8 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
 
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
              progress: bool = False, mirror: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
-             gain: float | None = None, head_row: str = "first", what: str | None = None) -> Estimate:
+             gain: float | None = None, head_row: str = "first", what: str | None = None,
+             sites: bool = True) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch); or,
@@ -299,6 +323,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     mirror: also read each image's left-right mirror and average the two bodies
     (:mod:`pressurepose.net.mirror`; about twice the work).
     what: the input's name in messages (default: the file, or 'pressure').
+    sites: also split each image's load over the body sites of its estimated body and put the
+    pressure on the body's surface (``Estimate.sites``, ``Estimate.vertex_pressure``).
 
     Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings`) about empty images and
     readings above the sensor's range; BadInput when every image is empty or readings lie beyond
@@ -335,9 +361,20 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
+    vertices = cat(lambda a, b: b.vertices)
+    loads = site_loads(arr, vertices, vertex_sites_of(net, genders), net.config.grid) if sites else None
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
-                    vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
+                    vertices=vertices, faces=net.body.faces.cpu().numpy(),
                     pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
                     gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
-                    frame=frame)
+                    frame=frame, sites=loads,
+                    vertex_pressure=vertex_pressure(arr, vertices, net.config.grid) if sites else None)
+
+
+def vertex_sites_of(net: PressureNet, genders: Sequence[str]) -> np.ndarray:
+    """(B, V) int8 body site (:func:`pressurepose.body.sites.vertex_sites`) of every vertex of the
+    network's body of each image's gender ('f' / 'm')."""
+    layers = net.body.layers
+    per = {"f": vertex_sites(layers[0]), "m": vertex_sites(layers[-1])}
+    return np.stack([per[g] for g in genders]) if len(genders) else np.zeros((0, len(per["f"])), np.int8)
