@@ -23,7 +23,8 @@ site                  rule
 ``left_trochanter``   region pelvis, spine1 or hip, from 12 s cm below to 6 s cm above the hip
                       joints, in the outer half between the hip joint and the side of the body
 ``sacrum``            region pelvis, spine1, spine2 or hip, from 15 s cm below the hip joints
-                      to 8 s cm above spine1, behind the pelvis joint (sacrum and buttocks)
+                      to 8 s cm above spine1, behind the pelvis joint, between the hip joints
+                      (the sacrum and the inner buttocks, which carry the pelvis lying on the back)
 ``left_shoulder``     within 11 s cm of the shoulder joint, outside it (|x| >= the joint's)
 ``scapulae``          region spine2, spine3, collar or shoulder, from 12 s cm below spine3 to
                       4 s cm above the shoulders, behind spine3, between the shoulder joints
@@ -34,7 +35,8 @@ site                  rule
 ``docs/monitoring.md``.
 
 :func:`taxel_sites` gives each loaded taxel of a pressure image the site of the body lying on it
-(the lowest vertex over the taxel, else the nearest lowest vertex) and :func:`site_loads` the
+(of the vertex of the lowest triangle over the taxel's centre nearest that centre, else of the
+nearest such vertex) and :func:`site_loads` the
 peak and mean pressure, contact area and share of the load of each site; :func:`vertex_pressure`
 puts the pressure on the body's surface. Pure numpy over arrays.
 """
@@ -46,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.joints import JOINT_NAMES
+from pressurepose.body.mesh import lower_surface
 from pressurepose.errors import BadInput
 from pressurepose.mat import MatSpec
 
@@ -121,7 +124,8 @@ def vertex_sites(model) -> np.ndarray:
         outer = (sign * v[band, 0]).max() if band.any() else inner
         claim(f"{side}_trochanter", band & (sign * v[:, 0] > inner + 0.5 * (outer - inner)))
     claim("sacrum", regions("pelvis", "spine1", "spine2", "left_hip", "right_hip") & (v[:, 1] > hip_y - 0.15 * s)
-          & (v[:, 1] < j["spine1"][1] + 0.08 * s) & (v[:, 2] < j["pelvis"][2]))
+          & (v[:, 1] < j["spine1"][1] + 0.08 * s) & (v[:, 2] < j["pelvis"][2])
+          & (np.abs(v[:, 0]) < 0.5 * abs(j["left_hip"][0] - j["right_hip"][0])))
     for side, sign in (("left", 1.0), ("right", -1.0)):
         shoulder = j[f"{side}_shoulder"]
         claim(f"{side}_shoulder", (np.linalg.norm(v - shoulder, axis=1) < 0.11 * s)
@@ -149,43 +153,57 @@ def _check_images(pressure, what: str = "pressure") -> np.ndarray:
     return p
 
 
-def taxel_sites(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> np.ndarray:
+def taxel_sites(pressure, vertices, faces, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> np.ndarray:
     """(B, R, C) int8 site (index into :data:`SITES`) of every loaded taxel, ``NO_SITE`` (-1) elsewhere.
 
     pressure (B, R, C) mmHg on ``mat``; vertices (B, V, 3) the bodies lying on it (bed frame, m:
-    taxel (r, c) covers x in [c, c+1) pitch_col_m, y in [r, r+1) pitch_row_m); vertex_site (V,) from
-    :func:`vertex_sites` (or (B, V), one per body). A taxel is loaded when it reads more than ``min_mmhg``; it takes its site
-    in :func:`body_site_map`.
+    taxel (r, c) covers x in [c, c+1) pitch_col_m, y in [r, r+1) pitch_row_m) and faces (F, 3)
+    their triangles; vertex_site (V,) from :func:`vertex_sites` (or (B, V), one per body). A taxel
+    is loaded when it reads more than ``min_mmhg``; it takes its site in :func:`body_site_map`.
     """
-    p, verts, vsite = _check_inputs(pressure, vertices, vertex_site, mat)
-    return np.where(p > min_mmhg, body_site_map(verts, vsite, mat), NO_SITE).astype(np.int8)
+    p, verts, tris, vsite = _check_inputs(pressure, vertices, faces, vertex_site, mat)
+    return np.where(p > min_mmhg, body_site_map(verts, tris, vsite, mat), NO_SITE).astype(np.int8)
 
 
-def body_site_map(vertices, vertex_site, mat: MatSpec) -> np.ndarray:
+def body_site_map(vertices, faces, vertex_site, mat: MatSpec) -> np.ndarray:
     """(B, R, C) int8: the site of the body over every taxel of ``mat``, loaded or not: the site of
-    the lowest vertex over the taxel, or where no vertex lies over it, of the nearest (in x, y)
-    vertex that is the lowest over its own taxel (``NO_SITE`` only for a body with no vertex over
-    the mat). vertices (B, V, 3) bed frame, m; vertex_site (V,) from :func:`vertex_sites`, or (B, V)
-    one per body (bodies of different models with one topology)."""
+    the vertex nearest the taxel's centre of the lowest triangle over that centre (the skin that
+    lies on the mat there); where no triangle lies over the centre, the site of the nearest (in
+    x, y) of those vertices. ``NO_SITE`` only for a body nowhere over the mat. vertices (B, V, 3) bed
+    frame, m; faces (F, 3); vertex_site (V,) from :func:`vertex_sites`, or (B, V) one per body
+    (bodies of different models with one topology)."""
     from scipy.spatial import cKDTree
 
     verts = np.asarray(vertices, dtype=np.float64)
     verts = verts[None] if verts.ndim == 2 else verts
+    tris = np.asarray(faces, dtype=np.int64)
     vsite = np.broadcast_to(np.asarray(vertex_site, dtype=np.int64), verts.shape[:2])
     R, C = mat.shape
     out = np.full((len(verts), R * C), NO_SITE, dtype=np.int8)
-    centres = np.stack(np.meshgrid((np.arange(C) + 0.5) * mat.pitch_col_m, (np.arange(R) + 0.5) * mat.pitch_row_m),
-                       -1).reshape(-1, 2)
     for b in range(len(verts)):
-        cell, low = lowest_vertices(verts[b], mat)
-        if not len(low):
+        nearest = _skin_vertices(verts[b], tris, mat)[1].ravel()
+        on = np.flatnonzero(nearest >= 0)
+        if not len(on):
             continue
-        out[b, cell] = vsite[b, low]
-        missing = np.flatnonzero(out[b] < 0)
+        out[b, on] = vsite[b, nearest[on]]
+        missing = np.flatnonzero(nearest < 0)
         if len(missing):
-            _, k = cKDTree(verts[b, low, :2]).query(centres[missing])
-            out[b, missing] = vsite[b, low[k]]
+            _, k = cKDTree(verts[b, nearest[on], :2]).query(_centres(mat)[missing])
+            out[b, missing] = vsite[b, nearest[on][k]]
     return out.reshape(len(verts), R, C)
+
+
+def _centres(mat: MatSpec) -> np.ndarray:
+    """(R * C, 2) bed-frame x, y of the taxel centres, row-major."""
+    return np.stack(np.meshgrid((np.arange(mat.cols) + 0.5) * mat.pitch_col_m,
+                                (np.arange(mat.rows) + 0.5) * mat.pitch_row_m), -1).reshape(-1, 2)
+
+
+def _skin_vertices(vertices: np.ndarray, faces: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The body's lower surface over the taxel centres of ``mat``: heights (R, C) m (+inf where no
+    triangle) and the vertex of the lowest triangle nearest each centre (R, C) (-1 where none)."""
+    return lower_surface(vertices, faces, (0.0, 0.0), (mat.pitch_col_m, mat.pitch_row_m), mat.shape,
+                         return_vertex=True)
 
 
 def lowest_vertices(vertices: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -201,7 +219,7 @@ def lowest_vertices(vertices: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.
     return flat[first], idx[first]
 
 
-def _check_inputs(pressure, vertices, vertex_site, mat):
+def _check_inputs(pressure, vertices, faces, vertex_site, mat):
     if not isinstance(mat, MatSpec):
         raise BadInput(f"mat is {type(mat).__name__}; expected a pressurepose.mat.MatSpec")
     p = _check_images(pressure)
@@ -213,12 +231,17 @@ def _check_inputs(pressure, vertices, vertex_site, mat):
     if verts.ndim != 3 or verts.shape[-1] != 3 or len(verts) != len(p) or not np.all(np.isfinite(verts)):
         raise BadInput(f"vertices has shape {np.shape(vertices)}; expected finite ({len(p)}, V, 3) metres, one "
                        f"body per pressure image")
+    tris = np.asarray(faces)
+    if tris.ndim != 2 or tris.shape[1] != 3 or tris.dtype.kind not in "iu" or (
+            tris.size and (tris.min() < 0 or tris.max() >= verts.shape[1])):
+        raise BadInput(f"faces has shape {tris.shape} and dtype {tris.dtype}; expected (F, 3) vertex indices "
+                       f"below {verts.shape[1]}")
     vsite = np.asarray(vertex_site)
     if vsite.shape not in ((verts.shape[1],), verts.shape[:2]) or vsite.dtype.kind not in "iu" or (
             vsite.size and (vsite.min() < 0 or vsite.max() >= len(SITES))):
         raise BadInput(f"vertex_site has shape {vsite.shape} and dtype {vsite.dtype}; expected ({verts.shape[1]},) "
                        f"or ({len(verts)}, {verts.shape[1]}) indices into SITES")
-    return p, verts, vsite.astype(np.int64)
+    return p, verts, tris.astype(np.int64), vsite.astype(np.int64)
 
 
 # ---------------------------------------------------------------------------------------- loads
@@ -285,32 +308,28 @@ def site_stats(pressure, taxel_site, mat: MatSpec) -> SiteLoads:
                      taxel_site=t.astype(np.int8))
 
 
-def site_loads(pressure, vertices, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> SiteLoads:
+def site_loads(pressure, vertices, faces, vertex_site, mat: MatSpec, min_mmhg: float = 0.0) -> SiteLoads:
     """Per-site load of pressure images (B, R, C) mmHg under bodies ``vertices`` (B, V, 3) with
-    sites ``vertex_site`` (V,) or (B, V): :func:`taxel_sites` then :func:`site_stats`."""
-    return site_stats(pressure, taxel_sites(pressure, vertices, vertex_site, mat, min_mmhg), mat)
+    triangles ``faces`` (F, 3) and sites ``vertex_site`` (V,) or (B, V): :func:`taxel_sites` then
+    :func:`site_stats`."""
+    return site_stats(pressure, taxel_sites(pressure, vertices, faces, vertex_site, mat, min_mmhg), mat)
 
 
-def vertex_pressure(pressure, vertices, mat: MatSpec, reach_m: float = 0.02) -> np.ndarray:
+def vertex_pressure(pressure, vertices, faces, mat: MatSpec, reach_m: float = 0.02) -> np.ndarray:
     """(B, V) mmHg on the body's surface: each vertex reads the taxel under it when it lies within
-    ``reach_m`` of the lowest vertex over that taxel (the skin on the mat), else 0; vertices beyond
-    the mat read 0. pressure (B, R, C) mmHg; vertices (B, V, 3) bed frame, m."""
-    p = _check_images(pressure)
-    verts = np.asarray(vertices, dtype=np.float64)
-    if verts.ndim == 2:
-        verts = verts[None]
-    if verts.ndim != 3 or verts.shape[-1] != 3 or len(verts) != len(p) or p.shape[1:] != mat.shape:
-        raise BadInput(f"pressure {p.shape} and vertices {np.shape(vertices)} must be B images on the mat "
-                       f"({mat.rows}, {mat.cols}) and B bodies (V, 3)")
+    ``reach_m`` of the body's lower surface over that taxel (the skin on the mat: the lowest
+    triangle over the taxel's centre, or its lowest vertex), else 0; vertices beyond the mat read 0.
+    pressure (B, R, C) mmHg; vertices (B, V, 3) bed frame, m; faces (F, 3)."""
+    p, verts, tris, _ = _check_inputs(pressure, vertices, faces, np.zeros(np.shape(vertices)[-2], np.int64), mat)
     out = np.zeros(verts.shape[:2])
     for b in range(len(p)):
         row = np.floor(verts[b, :, 1] / mat.pitch_row_m).astype(np.int64)
         col = np.floor(verts[b, :, 0] / mat.pitch_col_m).astype(np.int64)
         inside = (row >= 0) & (row < mat.rows) & (col >= 0) & (col < mat.cols)
         flat = np.where(inside, row * mat.cols + col, 0)
+        floor = _skin_vertices(verts[b], tris, mat)[0].ravel()
         cell, low = lowest_vertices(verts[b], mat)
-        floor = np.full(mat.rows * mat.cols, np.inf)
-        floor[cell] = verts[b, low, 2]
+        floor[cell] = np.minimum(floor[cell], verts[b, low, 2])
         near = inside & (verts[b, :, 2] <= floor[flat] + reach_m)
         out[b, near] = p[b].ravel()[flat[near]]
     return out

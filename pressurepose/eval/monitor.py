@@ -16,8 +16,11 @@ frame while the network runs only when the person moves. The rest are pure funct
 * time above the threshold per site (default 32 mmHg, the capillary closing pressure most cited in
   the pressure-injury literature: Landis, Heart 15:209, 1930), its longest stretch, and an alert
   for each stretch longer than the repositioning interval (default 2 hours, the common
-  repositioning schedule). A stretch ends when the site stays at or under the threshold for
-  ``relief_s``; shorter dips do not relieve the skin.
+  repositioning schedule), for every named site ('other', the rest of the body, has its time above
+  the threshold but no alerts). A site counts as loaded where its peak is over the threshold in
+  most frames of a window of ``relief_s`` around the frame (a reading that wanders over and back
+  for less than that is noise, either way), and a stretch ends when it stays unloaded for
+  ``relief_s``: shorter reliefs do not relieve the skin.
 
 Times: seconds from the first frame. Frame ``t`` lasts until frame ``t + 1`` (the last one lasts the
 median frame interval); a gap between frames longer than ``max_gap_s`` is refused (the recording
@@ -191,7 +194,8 @@ class Timeline:
     movements shorter than ``min_posture_s`` are joined to the posture before them); roll_deg (T,)
     the body's roll (NaN on empty frames); estimated (T,) bool; peak_mmhg, mean_mmhg, share (T, S)
     per site of :data:`~pressurepose.body.sites.SITES`; turns; posture_s {posture: seconds};
-    above_s, longest_above_s {site: seconds above the threshold, in all and the longest stretch};
+    above_s, longest_above_s {site: seconds loaded above the threshold (:func:`loaded_frames`), in
+    all and the longest stretch};
     alerts; config.
     """
 
@@ -314,10 +318,26 @@ def _median_roll(roll_deg) -> float:
     return float(centre + np.median([_wrap_deg(x - centre) for x in r]))
 
 
-def above_stretches(above, times, durations, relief_s: float) -> list[tuple[int, int]]:
-    """Stretches (first frame, end frame exclusive) of ``above`` (T,) bool, a dip shorter than
-    ``relief_s`` between two of them not ending the stretch."""
+def loaded_frames(above, durations, relief_s: float) -> np.ndarray:
+    """(T,) bool: the frames where a site counts as loaded, from ``above`` (T,) bool (its peak over
+    the threshold): more than half of the frames within ``relief_s`` / 2 either side are above, so a
+    reading that wanders over and back under the threshold for less than that is noise, either way."""
     a = np.asarray(above, bool)
+    d = np.asarray(durations, dtype=np.float64)
+    step = float(np.median(d)) if len(d) else 0.0
+    width = int(round(relief_s / step)) if step > 0 else 1
+    if width <= 1 or not a.any():
+        return a
+    from scipy.ndimage import uniform_filter1d
+
+    return uniform_filter1d(a.astype(np.float64), width | 1, mode="nearest") > 0.5
+
+
+def above_stretches(above, times, durations, relief_s: float) -> list[tuple[int, int]]:
+    """Stretches (first frame, end frame exclusive) where a site is loaded (:func:`loaded_frames`
+    of ``above`` (T,) bool), a relief shorter than ``relief_s`` between two of them not ending the
+    stretch."""
+    a = loaded_frames(above, durations, relief_s)
     if not a.any():
         return []
     edges = np.diff(np.r_[0, a.astype(np.int8), 0])
@@ -373,12 +393,12 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
     above_s, longest, alerts = {}, {}, []
     for k, site in enumerate(SITES):
         above = peak[:, k] > config.threshold_mmhg
-        above_s[site] = float(dur[above].sum())
+        above_s[site] = float(dur[loaded_frames(above, dur, config.relief_s)].sum())
         stretches = above_stretches(above, t, dur, config.relief_s)
         lengths = [float(t[e - 1] + dur[e - 1] - t[s]) for s, e in stretches]
         longest[site] = max(lengths, default=0.0)
         for (s, e), length in zip(stretches, lengths):
-            if length > config.reposition_s:
+            if length > config.reposition_s and site != "other":
                 alerts.append(Alert(site=site, start_s=float(t[s]), end_s=float(t[e - 1] + dur[e - 1]),
                                     duration_s=length, due_s=float(t[s] + config.reposition_s),
                                     peak_mmhg=float(peak[s:e, k].max())))
@@ -396,7 +416,12 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     :func:`pressurepose.net.infer.estimate`'s. Only the frames :func:`select_frames` picks are
     estimated, ``chunk`` at a time (bounded memory), ``batch_size`` per network call."""
     from pressurepose.body.sites import body_site_map
-    from pressurepose.net.infer import check_pressure, estimate, resolve_model, vertex_sites_of
+    from pressurepose.net.infer import (
+        check_pressure,
+        estimate,
+        resolve_model,
+        vertex_sites_of,
+    )
     from pressurepose.pose.posture import roll_angle
 
     net = resolve_model(model)
@@ -415,5 +440,77 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         part = idx[s:s + chunk]
         est = estimate(p[part], gender, net, batch_size=batch_size, sites=False)
         roll[s:s + len(part)] = roll_angle(est.pose)
-        maps[s:s + len(part)] = body_site_map(est.vertices, vertex_sites_of(net, est.gender), grid)
+        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, vertex_sites_of(net, est.gender), grid)
     return timeline(t, p, selection, roll, maps, grid, config)
+
+
+# ---------------------------------------------------------------------------------------- reading
+FRAME_SUFFIXES = (".npy", ".csv", ".txt")
+
+
+def _natural_key(path) -> list:
+    import re
+
+    return [int(tok) if tok.isdigit() else tok for tok in re.split(r"(\d+)", path.name)]
+
+
+def read_frames(source, shape: tuple[int, int]) -> np.ndarray:
+    """Every frame (T, rows, cols) of a recording from a ``rows x cols`` mat, as stored: a ``.npy``
+    of (T, rows, cols) (or one frame), a text file of one frame a line (PhysioNet PMD experiment I's
+    layout), or a folder of one-frame files (.npy, .csv, or .txt of ``rows`` lines), in the natural
+    order of their names (frame_2 before frame_10). No frame is left out: the timeline needs them
+    all. BadInput naming the file for anything else."""
+    from pathlib import Path
+
+    from pressurepose.data.readers.pmd import read_frame_lines, read_image_lines
+    from pressurepose.data.readers.recording import read_array_file
+
+    path = Path(source)
+    if path.is_dir():
+        files = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in FRAME_SUFFIXES),
+                       key=_natural_key)
+        if not files:
+            raise BadInput(f"recording folder {str(path)!r} holds no frame files ({', '.join(FRAME_SUFFIXES)})")
+        frames = []
+        for f in files:
+            img = read_image_lines(f, shape) if f.suffix.lower() == ".txt" else read_array_file(f, "frame")
+            if np.shape(img) != tuple(shape):
+                raise BadInput(f"frame file {str(f)!r} has shape {np.shape(img)}; the mat is {shape[0]} x {shape[1]}")
+            frames.append(np.asarray(img, dtype=np.float32))
+        return np.stack(frames)
+    if not path.is_file():
+        raise BadInput(f"recording {str(path)!r} does not exist")
+    if path.suffix.lower() == ".txt":
+        arr = read_frame_lines(path, shape)
+    elif path.suffix.lower() == ".npy":
+        arr = read_array_file(path, "recording")
+    else:
+        raise BadInput(f"recording {str(path)!r}: expected a .npy of frames, a .txt of one frame a line, or a folder "
+                       f"of frame files")
+    arr = np.asarray(arr, dtype=np.float32)
+    arr = arr[None] if arr.ndim == 2 else arr
+    if arr.ndim != 3 or arr.shape[1:] != tuple(shape):
+        raise BadInput(f"recording {str(path)!r} has shape {arr.shape}; the mat is {shape[0]} x {shape[1]}: expected "
+                       f"(T, {shape[0]}, {shape[1]}) frames")
+    return arr
+
+
+def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,
+                    head_row: str = "first", chunk: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """A recording's frames (T, rows, cols) on ``mat`` (preset, mat.json or MatSpec) as the model's
+    input: (T, dst.rows, dst.cols) float32 mmHg and occupied (T,) bool. Frames that carry a body
+    take the road every real image takes (:func:`pressurepose.data.readers.recording.read_recording`
+    then :meth:`~pressurepose.data.readers.images.RealImages.model_input`: cleaned, in mmHg by
+    ``gain`` or ``weight_kg``, resampled onto ``dst``); a frame whose total reading is under a fifth
+    of the median of the recording's non-zero frames is empty (nobody on the mat) and stays 0."""
+    from pressurepose.data.readers.recording import read_recording
+    from pressurepose.data.realprep import valid_frames
+
+    real = read_recording(np.asarray(frames), mat, units, weight_kg=weight_kg, gain=gain, head_row=head_row)
+    occupied = valid_frames(real.images, low=0.2, high=np.inf)
+    out = np.zeros((len(real), *dst.shape), dtype=np.float32)
+    idx = np.flatnonzero(occupied)
+    for s in range(0, len(idx), chunk):
+        part = idx[s:s + chunk]
+        out[part] = real.select(part).model_input(dst)
+    return out, occupied

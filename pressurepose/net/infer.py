@@ -21,7 +21,13 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from pressurepose.body.sites import SITES, SiteLoads, site_loads, vertex_pressure, vertex_sites
+from pressurepose.body.sites import (
+    SITES,
+    SiteLoads,
+    site_loads,
+    vertex_pressure,
+    vertex_sites,
+)
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput
@@ -361,15 +367,15 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
-    vertices = cat(lambda a, b: b.vertices)
-    loads = site_loads(arr, vertices, vertex_sites_of(net, genders), net.config.grid) if sites else None
+    vertices, faces = cat(lambda a, b: b.vertices), net.body.faces.cpu().numpy()
+    loads = site_loads(arr, vertices, faces, vertex_sites_of(net, genders), net.config.grid) if sites else None
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
-                    vertices=vertices, faces=net.body.faces.cpu().numpy(),
+                    vertices=vertices, faces=faces,
                     pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
                     gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
                     frame=frame, sites=loads,
-                    vertex_pressure=vertex_pressure(arr, vertices, net.config.grid) if sites else None)
+                    vertex_pressure=vertex_pressure(arr, vertices, faces, net.config.grid) if sites else None)
 
 
 def vertex_sites_of(net: PressureNet, genders: Sequence[str]) -> np.ndarray:

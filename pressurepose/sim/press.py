@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.body.mesh import lower_surface
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.foundation import (
@@ -38,7 +39,6 @@ from pressurepose.sim.foundation import (
     solve_pasternak,
     solve_winkler,
 )
-from pressurepose.sim.raster import lower_surface
 from pressurepose.sim.sensor import GRAVITY, read_sensor
 from pressurepose.sim.tissue import Bones, tissue_depth
 

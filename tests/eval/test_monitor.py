@@ -13,6 +13,7 @@ from pressurepose.eval.monitor import (
     above_stretches,
     frame_times,
     load_change,
+    loaded_frames,
     posture_runs,
     select_frames,
     timeline,
@@ -127,12 +128,16 @@ def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval(
     assert len(lines[0].split(",")) == 4 + 2 * len(SITES)
 
 
-def test_a_short_dip_under_the_threshold_does_not_relieve_the_skin():
-    t = np.arange(100.0)
-    above = np.ones(100, bool)
+def test_a_short_dip_under_the_threshold_does_not_relieve_the_skin_and_noise_is_no_load():
+    t = np.arange(300.0)
+    above = np.ones(300, bool)
     above[40:50] = False  # 10 s under
-    assert above_stretches(above, t, np.ones(100), relief_s=60) == [(0, 100)]
-    assert above_stretches(above, t, np.ones(100), relief_s=5) == [(0, 40), (50, 100)]
+    above[100:220] = False  # 2 minutes under
+    above[150:220:7] = True  # a reading near the threshold crossing it now and then
+    (a0, a1), (b0, b1) = above_stretches(above, t, np.ones(300), relief_s=60)
+    assert (a0, a1, b1) == (0, 100, 300) and 212 <= b0 <= 220  # the crossings just before 220 blur its start
+    assert above_stretches(above, t, np.ones(300), relief_s=5) == [(0, 40), (50, 100), (220, 300)]
+    assert not loaded_frames(above, np.ones(300), 60)[150:190].any()
 
 
 def test_bad_settings_and_shapes_are_refused():
@@ -146,3 +151,99 @@ def test_bad_settings_and_shapes_are_refused():
         timeline(t, frames, sel, np.zeros(3), np.zeros((3, 8, 6), np.int8), MAT)
     with pytest.raises(BadInput, match="frames"):
         select_frames(frames[0])
+
+
+# --------------------------------------------------------------------------- a night read by the shipped model
+NIGHT_FRAMES = __import__("pathlib").Path(__file__).parent / "data" / "night_frames.npz"
+
+
+def night_recording(schedule, seed=0):
+    """Real-looking frames (T, 64, 27) mmHg at 1 Hz of a known schedule [(posture or None, seconds)]:
+    the simulated image of each posture (tools/record_night_frames.py) with breathing (a 4 s cycle of
+    +-2 % over the trunk), 4 % noise per taxel and a 12 s roll between postures (the two images
+    blended), and the turn times."""
+    rng = np.random.default_rng(seed)
+    data = np.load(NIGHT_FRAMES)
+    image = dict(zip(data["posture"].tolist(), data["pressure"].astype(np.float64)))
+    frames, turns, last, t = [], [], None, 0
+    breath = np.zeros((64, 27))
+    breath[10:35] = 1.0
+    for posture, seconds in schedule:
+        img = np.zeros((64, 27)) if posture is None else image[posture]
+        if posture is not None and last is not None and posture != last:
+            turns.append(t)
+            for k in range(12):  # rolling over: the old print fades as the new one grows
+                w = (k + 1) / 13
+                frames.append((1 - w) * image[last] + w * img)
+                t += 1
+            seconds -= 12
+        for _ in range(seconds):
+            phase = np.sin(2 * np.pi * t / 4.0)
+            frames.append(img * (1 + 0.02 * phase * breath) * rng.uniform(0.96, 1.04, img.shape))
+            t += 1
+        last = posture if posture is not None else last
+    return np.clip(np.stack(frames), 0, 100).astype(np.float32), turns
+
+
+SCHEDULE = [("supine", 600), ("left", 900), ("supine", 300), ("right", 1200), (None, 60), ("right", 300),
+            ("prone", 600)]
+
+
+@pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
+def test_the_shipped_model_finds_every_turn_of_a_night_and_no_other():
+    from pressurepose.eval.monitor import monitor
+
+    frames, turns = night_recording(SCHEDULE)
+    tl = monitor(frames, frame_times(len(frames), fps=1.0), "f")
+    found = [(x.time_s, x.before, x.after) for x in tl.turns]
+    assert [x[1:] for x in found] == [("supine", "left"), ("left", "supine"), ("supine", "right"),
+                                      ("right", "prone")]  # back on the same side after the empty minute: no turn
+    for (time_s, _, _), truth in zip(found, [turns[0], turns[1], turns[2], turns[3]]):
+        assert truth <= time_s <= truth + 12  # found during the roll
+    assert tl.estimated.sum() < 0.05 * len(frames)  # the network reads the frames that changed, not the night
+    assert tl.posture_s["empty"] == pytest.approx(60, abs=2)
+    assert abs(tl.posture_s["right"] - 1500) < 15 and abs(tl.posture_s["prone"] - 600) < 15
+    left, right = site_index("left_trochanter"), site_index("right_trochanter")
+    on_left = (tl.times_s > 700) & (tl.times_s < 1400)
+    assert tl.share[on_left, left].mean() > tl.share[on_left, right].mean()  # lying on the left: its hip carries
+    supine = tl.times_s < 590
+    assert tl.share[supine, site_index("sacrum")].mean() > 0.15
+
+
+@pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
+def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, capsys):
+    from pressurepose.cli import main
+
+    frames, _ = night_recording([("supine", 200), ("left", 200)])
+    np.save(tmp_path / "night.npy", frames)
+    out = tmp_path / "out"
+    args = ["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender", "f",
+            "--out", str(out)]
+    assert main([*args, "--fps", "1", "--reposition-h", "0.02", "--min-posture-s", "30"]) == 0
+    printed = capsys.readouterr().out
+    assert "1 turn(s)" in printed and "supine -> left" in printed
+    rec = json.loads((out / "timeline.json").read_text())
+    assert [t["after"] for t in rec["turns"]] == ["left"] and len(rec["frames_table"]) == 400
+    assert rec["settings"]["threshold_mmhg"] == 32.0 and rec["alerts"]  # 72 s on the sacrum is past 0.02 h
+    assert (out / "night.png").stat().st_size > 0
+    assert len((out / "timeline.csv").read_text().splitlines()) == 401
+    # the same frames as a folder of one-frame files, with timestamps
+    (tmp_path / "frames").mkdir()
+    for k in range(0, 400, 40):
+        np.save(tmp_path / "frames" / f"f{k}.npy", frames[k])
+    np.savetxt(tmp_path / "t.txt", np.arange(0, 400, 40) + 1000.0)
+    assert main(["monitor", str(tmp_path / "frames"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender",
+                 "f", "--timestamps", str(tmp_path / "t.txt"), "--out", str(tmp_path / "o2"),
+                 "--min-posture-s", "30"]) == 0
+    rec = json.loads((tmp_path / "o2" / "timeline.json").read_text())
+    assert [r["time_s"] for r in rec["frames_table"]][:3] == [0.0, 40.0, 80.0]  # f40 after f0, before f80
+    capsys.readouterr()
+    # bad input: no timing, frames of another mat, a gap in time, a weightless raw recording
+    assert main(args) == 2
+    np.save(tmp_path / "wrong.npy", frames[:, :60])
+    assert main([*args[:1], str(tmp_path / "wrong.npy"), *args[2:], "--fps", "1"]) == 2
+    np.savetxt(tmp_path / "gap.txt", np.r_[np.arange(200), np.arange(200) + 500.0])
+    assert main([*args, "--timestamps", str(tmp_path / "gap.txt")]) == 2
+    assert main([*args[:5], "raw", *args[6:], "--fps", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "--fps" in err and "(400, 60, 27)" in err and "gap of 301 s" in err and "weight" in err

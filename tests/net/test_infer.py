@@ -49,7 +49,7 @@ def test_estimate_splits_each_image_over_the_body_sites_under_its_body(model_pat
     p = est.pressure
     np.testing.assert_array_equal(est.sites.taxel_site != NO_SITE, p > 0)  # every loaded taxel, and only those
     np.testing.assert_allclose(est.sites.share.sum(1), 1.0)
-    again = site_loads(p, est.vertices, vertex_sites(toy_body()), GRID)  # the body's own sites, recomputed
+    again = site_loads(p, est.vertices, est.faces, vertex_sites(toy_body()), GRID)  # the body's own sites, recomputed
     np.testing.assert_allclose(est.sites.share, again.share)
     np.testing.assert_allclose(est.sites.peak_mmhg.max(1), p.reshape(3, -1).max(1))
     assert est.vertex_pressure.shape == (3, 192) and est.vertex_pressure.max() <= p.max()

@@ -8,11 +8,11 @@ import scipy.optimize
 import trimesh
 from matplotlib.path import Path
 
+from pressurepose.body.mesh import lower_surface
 from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import DEPTH_EMPTY_M, GRAVITY, PressFailed, get_bed, press
 from pressurepose.sim.press import mesh_centroid, press_grid
-from pressurepose.sim.raster import lower_surface
 
 K_A = 6e4
 
