@@ -247,3 +247,31 @@ def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, c
     assert main([*args[:5], "raw", *args[6:], "--fps", "1"]) == 2
     err = capsys.readouterr().err
     assert "--fps" in err and "(400, 60, 27)" in err and "gap of 301 s" in err and "weight" in err
+
+
+PMD = __import__("os").environ.get("PRESSUREPOSE_PMD", "")
+
+
+@pytest.mark.skipif(not PMD or not __import__("pathlib").Path(PMD, "S1", "1.txt").is_file(),
+                    reason="PRESSUREPOSE_PMD does not name PhysioNet PMD experiment I")
+def test_a_pmd_recording_of_three_postures_turns_where_the_person_turned(tmp_path, capsys):
+    """Subject 1 of PMD experiment I (87 kg) lying supine, on the right side, on the left side and
+    supine again, two minutes each: its recorded frames cycled, written as one text recording."""
+    from pathlib import Path
+
+    from pressurepose.cli import main
+    from pressurepose.data.readers.pmd import read_pmd_i_file
+    from pressurepose.data.realprep import valid_frames
+
+    lines = []
+    for name in ("1", "2", "3", "1"):
+        frames = read_pmd_i_file(Path(PMD, "S1", f"{name}.txt"))
+        frames = frames[valid_frames(frames)]
+        lines += ["\t".join(f"{v:g}" for v in frames[k % len(frames)].ravel()) for k in range(120)]
+    (tmp_path / "night.txt").write_text("\n".join(lines) + "\n")
+    assert main(["monitor", str(tmp_path / "night.txt"), "--mat", "fsa_softflex_2048", "--units", "raw",
+                 "--weight-kg", "87", "--gender", "m", "--fps", "1", "--out", str(tmp_path / "out")]) == 0
+    rec = json.loads((tmp_path / "out" / "timeline.json").read_text())
+    assert [(t["time_s"], t["before"], t["after"]) for t in rec["turns"]] == [
+        (120.0, "supine", "right"), (240.0, "right", "left"), (360.0, "left", "supine")]
+    assert rec["frames_estimated"] < 0.25 * 480
