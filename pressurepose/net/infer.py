@@ -3,7 +3,8 @@
 >>> from pressurepose.net.infer import estimate
 >>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg on the model's mat
 >>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
->>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply
+>>> est.sites.share.shape                                                    # (1, 16) load per body site
+>>> est.save("out/")   # estimate.json, estimate.npz, sites.json, mesh_000.ply
 >>> est = estimate("S1/1.txt", "m", mat="fsa_softflex_2048", units="raw", weight_kg=87)  # a real recording
 
 A real recording on any mat (``mat=``) is read by
