@@ -47,8 +47,7 @@ from pressurepose.net.pmr import pmr
 GRID = custom_mat(64, 27, 0.0286, 0.0286)
 # (label, cnn variant, bf16 autocast) of the training options measured
 TRAIN_OPTIONS = (("paper CNN, float32 (default)", "paper", False), ("paper CNN, bf16 autocast", "paper", True),
-                 ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True),
-                 ("quarter CNN, float32", "quarter", False), ("quarter CNN, bf16 autocast", "quarter", True))
+                 ("half CNN, float32", "half", False), ("half CNN, bf16 autocast", "half", True))
 
 
 def bodies() -> tuple[BodyModel, BodyModel, str]:
@@ -303,7 +302,7 @@ def main(argv=None) -> int:
         "",
         f"Training on the CPU, one thread, batch {args.train_batch}, the training loop's steps (noise, input "
         f"transform, forward, loss, backward, Adam); median of {args.train_steps} steps. The paper's CNN in "
-        "float32 is the default of `pressurepose train`; the others are options (`train --cnn half|quarter`, "
+        "float32 is the default of `pressurepose train`; the others are options (`train --cnn half`, "
         "`--cpu-amp`). The shipped model is the half CNN trained with bf16 autocast (section shipped model), "
         "which also makes its inference faster than the paper CNN's.",
         "",

@@ -36,13 +36,10 @@ from pressurepose.body.masses import segment_masses
 from pressurepose.pose.sampler import sample_bodies
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.ragdoll import ragdoll_params
-from pressurepose.sim.settle import (
-    STATUSES,
-    SettleConfig,
-    calibrate_stiffness,
-    settle,
-    settle_cells,
-)
+from pressurepose.sim.settle import STATUSES, settle
+from pressurepose.sim.settle_config import SettleConfig
+from pressurepose.sim.settle_model import settle_cells
+from pressurepose.sim.settle_stiffness import calibrate_stiffness
 
 PARTITIONS = ("general", "general_supine", "prone_hands_up")
 
@@ -56,8 +53,7 @@ def run(body, samples, bed, config, gender):
             caps = capsules_for(body, batch.betas[i])
             params = ragdoll_params(body, batch.betas[i], gender, caps=caps,
                                     masses=segment_masses(body, batch.betas[i], gender, caps=caps),
-                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness,
-                                    limb_damping_s=config.limb_damping_s)
+                                    relaxed_neck=config.relaxed_neck, spine_stiffness=config.spine_stiffness)
             t1 = time.process_time()
             res = settle(body, batch.betas[i], batch.pose[i], batch.transl[i], gender, bed, config, params=params)
             rows.append((part, res, t1 - t0, time.process_time() - t1))

@@ -65,7 +65,7 @@ def breakdown(config: GenerationConfig) -> dict:
     """Every attempt of ``config``'s samples, made by the physics producer's own call
     (:func:`pressurepose.sim.simulate.simulate_one`), with its settle steps and the CPU of its phases."""
     from pressurepose.data.physics import sampler_config, setup
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     body, bed = setup(config)
     rows = []  # (status, steps, sample s, settle s, press s)
@@ -74,7 +74,7 @@ def breakdown(config: GenerationConfig) -> dict:
             t: dict = {}
             res = simulate_one(body, bed, config.partition, config.gender, attempt_rng(config, i, attempt),
                                config.limbs_on_bed, sampler_config(config), timings=t)
-            status = res if isinstance(res, str) else "settled"
+            status = res.cause if isinstance(res, Rejected) else "settled"
             rows.append((status, t["steps"], t["sample"], t["settle"], t["press"]))
             if status == "settled":
                 break

@@ -15,6 +15,7 @@ import torch
 
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
+from pressurepose.sim.simulate import Rejected
 from tests.net.synth import BODITRAK, toy_body, write_toy_dataset
 
 torch.set_num_threads(1)
@@ -342,7 +343,7 @@ def _fake_simulate_one(calls):
         calls.append(1)
         draw = rng.uniform()
         if draw < 0.3:
-            return "unstable"
+            return Rejected("unstable")
         return SimpleNamespace(image=_Image(rng), betas=rng.normal(size=10), pose=rng.normal(size=72),
                                transl=rng.normal(size=3), joints=rng.normal(size=(24, 3)), mass=60 + 10 * draw,
                                height=1.7, wedge=None)
@@ -361,7 +362,7 @@ def test_simulate_keeps_finished_bodies_when_killed_and_resumes(tmp_path, capsys
 
     def dies_at_body_3(body, bed, partition, gender, rng, *rest, **kw):
         out = fake(body, bed, partition, gender, rng, *rest, **kw)
-        if not isinstance(out, str):
+        if not isinstance(out, Rejected):
             n_bodies.append(1)
             if len(n_bodies) == 4:
                 raise KeyboardInterrupt  # as a kill at body 3 would; 0..2 are finished

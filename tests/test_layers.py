@@ -29,3 +29,10 @@ def test_every_subpackage_is_on_a_floor():
     modules = {f"pressurepose.{p.name}" for p in root.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
     modules |= {f"pressurepose.{p.stem}" for p in root.glob("*.py") if p.stem != "__init__"}
     assert modules == named
+
+
+def test_settle_and_dataset_configs_are_checked_without_mujoco():
+    code = ("import sys, pressurepose.sim.settle_config, pressurepose.data.schema, pressurepose.sim.simulate\n"
+            "pressurepose.sim.settle_config.settle_preset('paper')\n"
+            "assert 'mujoco' not in sys.modules, sorted(m for m in sys.modules if 'mujoco' in m)")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)

@@ -91,7 +91,7 @@ def test_a_bed_file_goes_to_every_generate_call(tmp_path, monkeypatch):
 
 
 def test_a_settle_goes_to_generate(tmp_path, monkeypatch):
-    """`--settle relaxed-limbs` makes the data with that settle; the default passes none (generate's
+    """`--settle paper` makes the data with that settle; the default passes none (generate's
     default); it cannot go with --repress-from, which keeps an earlier run's rests."""
     import sys
 
@@ -99,10 +99,10 @@ def test_a_settle_goes_to_generate(tmp_path, monkeypatch):
     T = _tool()
     monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
     argv = ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01", "--real", str(tmp_path / "x")]
-    monkeypatch.setattr(sys, "argv", argv + ["--settle", "relaxed-limbs"])
+    monkeypatch.setattr(sys, "argv", argv + ["--settle", "paper"])
     assert T.main() == 0
     generate = [c for c in calls if c[0] == "generate"][0]
-    assert generate[generate.index("--settle") + 1] == "relaxed-limbs"
+    assert generate[generate.index("--settle") + 1] == "paper"
     bed = tmp_path / "bed.json"
     bed.write_text("{}")
     monkeypatch.setattr(sys, "argv", argv + ["--settle", "paper", "--bed", str(bed), "--repress-from", "old"])
@@ -179,5 +179,5 @@ def test_the_tools_defaults_train_as_the_shipped_model_was_trained(tmp_path, mon
     got["contact_floor_mmhg"] = got.pop("contact_floor")  # the record's name for --contact-floor
     shipped = json.loads((TOOL.parents[1] / "pressurepose" / "net" / "assets" / "pressurenet.json").read_text())["train"]
     for key in ("epochs_mod1", "epochs_mod2", "lr", "lr_mod2", "lr_schedule", "batch_size", "cnn", "cpu_amp",
-                "contact_floor_mmhg", "gender_input", "seed", "turn_loss", "mirror_p"):
+                "contact_floor_mmhg", "gender_input", "seed", "turn_loss"):
         assert got[key] == shipped[key], key

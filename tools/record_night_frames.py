@@ -46,7 +46,7 @@ def main() -> int:
                                                                   Rejected)), None)
             if sample is None or posture_of(sample.pose[None])[0] != posture:
                 continue
-            read = posture_of(estimate(sample.pressure, "f", sites=False).pose)[0]
+            read = posture_of(estimate(sample.pressure, "f").pose)[0]
             print(f"{partition} sample {index}: {posture}, read as {read}")
             if read == posture:
                 found[posture] = (sample, partition, index)

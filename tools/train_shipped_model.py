@@ -133,7 +133,7 @@ def cli(*args: str) -> None:
 
 def main() -> int:
     from pressurepose.cli.args import seed_arg
-    from pressurepose.sim.settle import SETTLES
+    from pressurepose.sim.presets import SETTLES
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")
@@ -152,15 +152,11 @@ def main() -> int:
     p.add_argument("--lr-mod2", type=float, default=1e-4)
     p.add_argument("--lr-schedule", choices=("constant", "cosine"), default="cosine")
     p.add_argument("--batch-size", type=int, default=32)
-    p.add_argument("--cnn", choices=("paper", "half", "quarter"), default="half",
+    p.add_argument("--cnn", choices=("paper", "half"), default="half",
                    help="CNN widths passed to train [half]")
     p.add_argument("--cpu-amp", action=argparse.BooleanOptionalAction, default=True,
                    help="bf16 autocast on the CPU [on]")
     p.add_argument("--contact-floor", type=float, default=5.0, help="input contact floor, mmHg [5]")
-    p.add_argument("--cut-feet", type=float, default=0.0,
-                   help="share of training images cut short at the foot end (train --cut-feet) [0]")
-    p.add_argument("--mirror-p", type=float, default=0.0,
-                   help="chance that a training sample is mirrored left to right (train --mirror-p) [0]")
     p.add_argument("--turn-loss", type=float, default=2.0,
                    help="weight of the loss on the body's turn (train --turn-loss; not in the paper; 0: the "
                         "paper's loss) [2: the shipped model's]")
@@ -240,8 +236,6 @@ def main() -> int:
         "--epochs-mod2", str(args.epochs_mod2), "--lr", str(args.lr), "--lr-mod2", str(args.lr_mod2),
         "--lr-schedule", args.lr_schedule, "--batch-size", str(args.batch_size), "--cnn", args.cnn,
         *(["--cpu-amp"] if args.cpu_amp else []), "--contact-floor", str(args.contact_floor),
-        *(["--cut-feet", str(args.cut_feet)] if args.cut_feet else []),
-        *(["--mirror-p", str(args.mirror_p)] if args.mirror_p else []),
         *(["--turn-loss", str(args.turn_loss)] if args.turn_loss else []),
         *(["--gender-input"] if args.gender_input else []), "--device", args.device, "--seed", str(args.seed))
     if not args.train_data or (data / "test").is_dir():

@@ -6,7 +6,7 @@
 #   bash tools/train_variants_gpu.sh train.npz 540 A:"--seed 0" A2:"--seed 1" B:"--seed 0 --epochs-mod1 72 --epochs-mod2 24"
 #
 # A variant may name its own training pack ("--train-data OTHER" in its arguments wins over PACK), so two
-# packs made with one recipe and seeds (e.g. the default settle and `--settle relaxed-limbs`) are compared
+# packs made with one recipe and seeds (e.g. the default settle and `--settle paper`) are compared
 # by the models trained on them: a1:"--seed 1" b1:"--seed 1 --train-data other.npz" ...
 #
 # Writes NAME.log and NAME.tar (the float16 shipped form and log.csv) into $OUT (default runs/gpu_variants).

@@ -400,10 +400,9 @@ def capsule_endpoints(caps: Capsules, joint_pos: np.ndarray, joint_rot: np.ndarr
     return centre[:, :, None, :] + half * axis[:, :, None, :]
 
 
-def joint_frames(body, betas, pose, transl=None, offsets=None) -> tuple[np.ndarray, np.ndarray]:
+def joint_frames(body, betas, pose, transl=None) -> tuple[np.ndarray, np.ndarray]:
     """World joint positions (B, 24, 3) and z-up world rotations W_j (B, 24, 3, 3) of posed bodies,
-    by the body model's own forward kinematics (betas (S,) or (B, S), pose (B, 72), transl (B, 3),
-    offsets None or joint offsets as ``BodyModel.forward`` takes them)."""
+    by the body model's own forward kinematics (betas (S,) or (B, S), pose (B, 72), transl (B, 3))."""
     pose = np.atleast_2d(np.asarray(pose, dtype=np.float64))
     b = np.asarray(betas, dtype=np.float64)
     if b.ndim == 1:
@@ -411,7 +410,7 @@ def joint_frames(body, betas, pose, transl=None, offsets=None) -> tuple[np.ndarr
     betas, pose, transl = body.check_params(b, pose, transl)
     _, J = lbs_numpy.shaped_rest(body.arrays, betas)
     rot = lbs_numpy.rodrigues(pose.reshape(pose.shape[0], body.num_joints, 3))
-    G = lbs_numpy.forward_kinematics(rot, J, body.parents, body.check_offsets(offsets, pose.shape[0]))
+    G = lbs_numpy.forward_kinematics(rot, J, body.parents)
     Q = Y_UP_TO_Z_UP
     W = Q @ G[..., :3, :3] @ Q.T
     pos = G[..., :3, 3] @ Q.T
@@ -420,14 +419,13 @@ def joint_frames(body, betas, pose, transl=None, offsets=None) -> tuple[np.ndarr
     return pos, W
 
 
-def posed_capsules(body, caps: Capsules, betas, pose, transl=None, offsets=None) -> tuple[np.ndarray, np.ndarray]:
+def posed_capsules(body, caps: Capsules, betas, pose, transl=None) -> tuple[np.ndarray, np.ndarray]:
     """Capsules of posed bodies: axis-segment ends (B, 20, 2, 3) in the z-up world, radii (20,).
 
     betas: the shape (S,) the capsules were made for (or (B, S)); pose: (B, 72) SMPL axis-angle;
-    transl: (B, 3) or None; offsets: None or joint offsets (``BodyModel.forward``). Uses the body
-    model's forward kinematics, so it agrees with the mesh.
+    transl: (B, 3) or None. Uses the body model's forward kinematics, so it agrees with the mesh.
     """
-    pos, W = joint_frames(body, betas, pose, transl, offsets)
+    pos, W = joint_frames(body, betas, pose, transl)
     return capsule_endpoints(caps, pos, W), caps.radius
 
 

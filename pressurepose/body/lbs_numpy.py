@@ -60,21 +60,15 @@ def rest_joints(model: SmplArrays, betas: np.ndarray) -> tuple[np.ndarray, np.nd
     return v @ Y_UP_TO_Z_UP.T, j @ Y_UP_TO_Z_UP.T
 
 
-def forward_kinematics(rot: np.ndarray, joints: np.ndarray, parents: np.ndarray,
-                       offsets: np.ndarray | None = None) -> np.ndarray:
+def forward_kinematics(rot: np.ndarray, joints: np.ndarray, parents: np.ndarray) -> np.ndarray:
     """World transforms of each joint.
 
-    rot: (B, J, 3, 3) local rotations; joints: (B, J, 3) rest joint positions; parents: (J,);
-    offsets: None or (B, J, 3) metres added to each joint's rest place relative to its parent, in
-    the parent's frame (the model's own y-up axes at rest), so a joint and everything below it move
-    (a shoulder girdle gliding on the ribs, which no rotation expresses).
+    rot: (B, J, 3, 3) local rotations; joints: (B, J, 3) rest joint positions; parents: (J,).
     Returns G: (B, J, 4, 4), the world transform of each joint frame (rest frame = identity).
     """
     b, n_j = joints.shape[:2]
     rel = joints.copy()
     rel[:, 1:] -= joints[:, parents[1:]]
-    if offsets is not None:
-        rel = rel + offsets
     local = np.zeros((b, n_j, 4, 4))
     local[..., :3, :3] = rot
     local[..., :3, 3] = rel
@@ -86,13 +80,12 @@ def forward_kinematics(rot: np.ndarray, joints: np.ndarray, parents: np.ndarray,
     return G
 
 
-def forward(model: SmplArrays, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray | None = None,
-            offsets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def forward(model: SmplArrays, betas: np.ndarray, pose: np.ndarray,
+            transl: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """SMPL forward pass.
 
     betas: (B, S) with S <= model.num_betas; pose: (B, 3 J) SMPL axis-angle, the first 3 the global
-    orientation; transl: (B, 3) metres or None; offsets: None or (B, J, 3), joint offsets as
-    :func:`forward_kinematics` takes them (the skin follows each joint's transform). Returns
+    orientation; transl: (B, 3) metres or None. Returns
     vertices (B, V, 3) and joints (B, J, 3) in the z-up project frame:
     ``Y_UP_TO_Z_UP @ skinned + transl``.
     """
@@ -103,7 +96,7 @@ def forward(model: SmplArrays, betas: np.ndarray, pose: np.ndarray, transl: np.n
     rot = rodrigues(pose.reshape(b, n_j, 3))
     pose_feature = (rot[:, 1:] - np.eye(3)).reshape(b, -1)
     v_posed = v_shaped + np.einsum("vcp,bp->bvc", model.posedirs, pose_feature)
-    G = forward_kinematics(rot, J, model.parents, offsets)
+    G = forward_kinematics(rot, J, model.parents)
     A = G.copy()
     A[..., :3, 3] -= np.einsum("bjcd,bjd->bjc", G[..., :3, :3], J)
     T = np.einsum("vj,bjcd->bvcd", model.weights, A)

@@ -144,31 +144,13 @@ class BodyModel:
         return betas, pose, transl
 
     # ---------------------------------------------------------------- forward
-    def forward(self, betas, pose, transl=None, offsets=None) -> tuple[np.ndarray, np.ndarray]:
-        """Numpy forward pass. betas (B, S), pose (B, 72), transl (B, 3) or None; offsets None or
-        (B, 24, 3) (or (24, 3)) metres added to each joint's rest place relative to its parent, in the
-        parent's frame with the model's own axes at rest (+y toward the head, +z forward, +x the body's
-        left; (24, 3) applies to every body): a joint and all below it move, as a shoulder girdle
-        gliding on the ribs does. The torch layer has no offsets.
+    def forward(self, betas, pose, transl=None) -> tuple[np.ndarray, np.ndarray]:
+        """Numpy forward pass. betas (B, S), pose (B, 72), transl (B, 3) or None.
 
         Returns vertices (B, V, 3) and joints (B, 24, 3), metres. 1-D inputs are a batch of one.
         """
         betas, pose, transl = self.check_params(betas, pose, transl)
-        return lbs_numpy.forward(self.arrays, betas, pose, transl, self.check_offsets(offsets, pose.shape[0]))
-
-    def check_offsets(self, offsets, batch: int) -> np.ndarray | None:
-        """Joint offsets as (batch, J, 3) float64, or None; BadInput naming them when malformed."""
-        if offsets is None:
-            return None
-        off = np.asarray(offsets, dtype=np.float64)
-        if off.shape == (self.num_joints, 3):
-            off = np.broadcast_to(off, (batch, self.num_joints, 3))  # the same offsets for every body
-        if off.shape != (batch, self.num_joints, 3):
-            raise BadInput(f"offsets has shape {np.shape(offsets)}; expected ({batch}, {self.num_joints}, 3) "
-                           f"or ({self.num_joints}, 3) metres")
-        if not np.all(np.isfinite(off)):
-            raise BadInput("offsets contains NaN or infinite values")
-        return off
+        return lbs_numpy.forward(self.arrays, betas, pose, transl)
 
     def rest(self, betas) -> tuple[np.ndarray, np.ndarray]:
         """Shaped T-pose vertices (B, V, 3) and joints (B, 24, 3)."""

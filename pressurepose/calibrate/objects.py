@@ -21,7 +21,7 @@ import numpy as np
 
 from pressurepose.calibrate.measurements import CapsuleMeasurements
 from pressurepose.errors import BadInput
-from pressurepose.sim.bed import BONE_PARTS, BedSpec
+from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import (
     Heightfield,
@@ -63,17 +63,14 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("c2", -0.02, 0.02, False, "sensor curvature, 1/mmHg"),
     Parameter("tissue", math.log10(2e2), math.log10(1e5), True, "soft tissue's Young's modulus E, Pa"),
     Parameter("threshold", 0.0, 10.0, False, "sensor threshold, mmHg: readings below it are 0"),
-    *(Parameter(f"bone_{part}", 0.05, 1.0, False, f"the {part.replace('_', ' ')}'s bone as a fraction of its "
-                f"capsule's radius (BedSpec.tissue_bone_fraction; --targets real only)") for part in BONE_PARTS),
 )}
-BONE_PARAMETERS = tuple(f"bone_{part}" for part in BONE_PARTS)
 
 
 def bed_params(bed: BedSpec) -> dict[str, float]:
     """The fittable constants of a bed, by :data:`PARAMETERS` name."""
     return {"stiffness": bed.stiffness_n_m3, "spread": bed.spread_length_m, "c0": bed.sensor_c0,
             "c1": bed.sensor_c1, "c2": bed.sensor_c2, "tissue": bed.tissue_modulus_pa,
-            "threshold": bed.sensor_threshold_mmhg, **dict(zip(BONE_PARAMETERS, bed.tissue_bone_fraction))}
+            "threshold": bed.sensor_threshold_mmhg}
 
 
 def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
@@ -81,8 +78,7 @@ def with_params(bed: BedSpec, params: dict[str, float]) -> BedSpec:
     p = {**bed_params(bed), **params}
     return dataclasses.replace(bed, stiffness_n_m3=p["stiffness"], coupling_n_m=p["stiffness"] * p["spread"] ** 2,
                                sensor_c0=p["c0"], sensor_c1=p["c1"], sensor_c2=p["c2"], tissue_modulus_pa=p["tissue"],
-                               sensor_threshold_mmhg=p["threshold"],
-                               tissue_bone_fraction=tuple(p[n] for n in BONE_PARAMETERS))
+                               sensor_threshold_mmhg=p["threshold"])
 
 
 # ------------------------------------------------------------------ objects and loss

@@ -40,9 +40,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
-                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue, "
-                        "threshold and (--targets real) bone_pelvis, bone_spine, ... bone_hand "
-                        "[stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
+                   help="comma-separated constants to fit, from stiffness, spread, c0, c1, c2, tissue and "
+                        "threshold [stiffness,spread,c0,c1,c2 for --data; stiffness,spread for --targets default; "
                         "stiffness,tissue,threshold for --targets real]")
     p.add_argument("--popsize", type=int, default=None, help="CMA-ES population size [50; 10 for --targets real]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed of CMA-ES [0]")
@@ -78,10 +77,6 @@ def run_calibrate(args) -> int:
     fit = tuple(s.strip() for s in args.fit.split(",")) if args.fit else None
     if args.bed or args.match_extent:
         raise BadInput("--bed and --match-extent are options of --targets real")
-    bones = [n for n in fit or () if n in cal.BONE_PARAMETERS]
-    if bones:
-        raise BadInput(f"--fit {','.join(bones)}: bone fractions shape the tissue of people, so they are fitted "
-                       f"with --targets real only")
     t0 = time.perf_counter()
 
     def progress(gen, evals, best):
@@ -139,18 +134,18 @@ def _plot_measurements(data, res):
     force, sink = press_objects(res.bed, fields, data.mass_kg)
     sim = cal.readings(force, res.bed)
     n = min(len(data), 6)
-    fig, axes = plt.subplots(2, n + 1, figsize=(2.2 * (n + 1), 7), squeeze=False)
+    fig, axes = plt.subplots(2, n + 1, figsize=(2.2 * (n + 1) + 0.8, 7), squeeze=False, layout="constrained")
     vmax = max(float(data.pressure_mmhg[:n].max()), float(sim[:n].max()), 1e-9)
     for j in range(n):
         for row, (img, q, label) in enumerate(((data.pressure_mmhg[j], data.sink_m[j], "measured"),
                                                (sim[j], sink[j], "simulated"))):
             ax = axes[row, j]
-            ax.imshow(img, vmin=0, vmax=vmax, cmap="viridis")
+            im = ax.imshow(img, vmin=0, vmax=vmax, cmap="viridis")
             ax.set_title(f"{label} #{j}\n{data.mass_kg[j]:.1f} kg, sink {100 * q:.1f} cm", fontsize=8)
             ax.axis("off")
+    fig.colorbar(im, ax=axes[:, :n], shrink=0.6, label="mmHg (one scale for all)")
     _plot_history(axes[0, n], res)
     axes[1, n].axis("off")
-    fig.tight_layout()
     return fig
 
 
@@ -161,8 +156,10 @@ def _plot_body(verts, faces, res, targets):
 
     out = press(verts, faces, targets.mass_kg, res.bed)
     fig, axes = plt.subplots(1, 2, figsize=(8, 6))
-    im = axes[0].imshow(out.pressure, cmap="viridis")
+    im = axes[0].imshow(out.pressure, cmap="viridis", vmin=0)
     fig.colorbar(im, ax=axes[0], label="mmHg")
+    axes[0].set_xlabel("column")
+    axes[0].set_ylabel("row (head end at 0)")
     axes[0].set_title(f"peak {out.pressure.max():.1f} mmHg (target {targets.peak_mmhg:g})\n"
                       f"sink {100 * out.sink_m:.1f} cm (target {100 * targets.max_sink_m:g})", fontsize=9)
     _plot_history(axes[1], res)
@@ -170,11 +167,20 @@ def _plot_body(verts, faces, res, targets):
     return fig
 
 
-def _plot_history(ax, res):
-    ax.semilogy(np.arange(1, len(res.history) + 1), np.maximum(res.history, 1e-12))
+def _plot_history(ax, res, title: str = "CMA-ES"):
+    """The loss by generation: the best found so far, and each generation's best (faint)."""
+    from matplotlib.ticker import MaxNLocator
+
+    gen = np.arange(1, len(res.history) + 1)
+    ax.semilogy(gen, np.maximum(res.history, 1e-12), color="tab:blue", alpha=0.35, lw=1,
+                label="best of the generation")
+    ax.semilogy(gen, np.maximum(np.minimum.accumulate(res.history), 1e-12), color="tab:blue",
+                label="best so far")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("generation")
-    ax.set_ylabel("best loss")
-    ax.set_title("CMA-ES", fontsize=9)
+    ax.set_ylabel("loss")
+    ax.legend(fontsize=7)
+    ax.set_title(title, fontsize=9)
 
 
 
@@ -281,10 +287,7 @@ def _run_people_calibration(args) -> int:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(5, 3.5))
-        ax.semilogy(np.arange(1, len(res.history) + 1), np.maximum(res.history, 1e-12))
-        ax.set_xlabel("generation")
-        ax.set_ylabel("best loss")
-        ax.set_title("CMA-ES against real images' statistics", fontsize=9)
+        _plot_history(ax, res, "CMA-ES against real images' statistics")
         fig.tight_layout()
         save_figure_atomic(fig, args.plot, dpi=100)
         plt.close(fig)

@@ -201,8 +201,9 @@ def add_info_arguments(p: argparse.ArgumentParser) -> None:
 def run_info(args: argparse.Namespace) -> int:
     """One summary per split (train, test...) when DIR holds several: they are never counted together."""
     from pressurepose.data.dataset import find_datasets, split_folders
-    from pressurepose.data.info import draw_summary, format_summary, summarize
+    from pressurepose.data.info import format_summary, summarize
     from pressurepose.files import FIGURE_SUFFIXES, check_output_path
+    from pressurepose.viz.dataset import draw_summary
 
     root = Path(args.dir)
     find_datasets(root)  # a file, a missing folder or no dataset: said before anything is written

@@ -37,7 +37,7 @@ def run_demo(args) -> int:
     from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
     from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import get_bed
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     out = check_output_path(args.out, "--out", directory=True)
     if str(args.gender).lower() not in ("f", "m", "female", "male"):  # the network's body models
@@ -57,9 +57,9 @@ def run_demo(args) -> int:
     t = _stage("load body model and bed", t)
     for _ in range(20):
         sim = simulate_one(body, bed, partition, gender, rng)
-        if not isinstance(sim, str):
+        if not isinstance(sim, Rejected):
             break
-        print(f"  (sample rejected: {sim}; drawing another)")
+        print(f"  (sample rejected: {sim.cause}{f' ({sim.detail})' if sim.detail else ''}; drawing another)")
     else:
         raise BadInput(f"no {partition} body settled in 20 attempts; try another --seed")
     t = _stage(f"sample + settle ({sim.settle_steps} steps) + press", t)
@@ -86,39 +86,49 @@ def run_demo(args) -> int:
 
 def _figure(body, bed, image, true_v, true_j, est):
     """The simulated pressure image (mmHg) and the true body at rest seen from below, through the mat;
-    with an estimate, also its reconstructed map Q (PMR, mm sink) and the estimated body from below."""
+    with an estimate, also its reconstructed map Q (the estimated body's sink, mm) and the estimated
+    body from below. Every panel has the same frame: the mat and both bodies, whole."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import draw_mesh
+    from pressurepose.viz.mesh import below_extent, draw_mesh
 
     mat = bed.mat
     w, h = mat.cols * mat.pitch_col_m, mat.rows * mat.pitch_row_m
     extent = [0, w, -h, 0]  # the 'below' view draws (x, -y): row 0 at the top, like the image
+    bodies = true_v[None] if est is None else np.stack([true_v, est.vertices[0]])
+    x0, x1, y0, y1 = below_extent(bodies, (w, h))
     n = 4 if est is not None else 2
-    fig, axes = plt.subplots(1, n, figsize=(3.2 * n, 6.2))
+    fig, axes = plt.subplots(1, n, figsize=(3.4 * n, 6.4))
+
+    def colour_bar(ax, im, label):  # beside the panel, taking no room from it: every panel keeps one size
+        fig.colorbar(im, cax=ax.inset_axes([1.03, 0.3, 0.05, 0.4]), label=label)
+
     im = axes[0].imshow(image.pressure, extent=extent, cmap="viridis", vmin=0)
     axes[0].set_title("simulated pressure image")
-    fig.colorbar(im, ax=axes[0], fraction=0.05, label="mmHg")
+    colour_bar(axes[0], im, "mmHg")
     draw_mesh(axes[1], true_v, body.faces, "below", color=(0.55, 0.7, 0.9))
     axes[1].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5)
     axes[1].set_title("true body at rest\n(seen through the mat)")
     if est is not None:
         im = axes[2].imshow(est.q[0], extent=extent, cmap="magma", vmin=0)
-        axes[2].set_title("reconstructed map (PMR)")
-        fig.colorbar(im, ax=axes[2], fraction=0.05, label="mm sink")
+        axes[2].set_title("reconstructed map Q\n(the estimate's sink)")
+        colour_bar(axes[2], im, "mm of sink")
         draw_mesh(axes[3], est.vertices[0], est.faces, "below", color=(0.95, 0.65, 0.4))
         axes[3].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5, label="true joints")
         axes[3].scatter(est.joints[0, :, 0], -est.joints[0, :, 1], s=8, c="r", zorder=6, label="estimated")
         axes[3].legend(loc="lower right", fontsize=7)
         axes[3].set_title("estimated body")
+    for ax in axes[1::2]:
+        ax.add_patch(Rectangle((0, -h), w, h, fill=False, ls="--", color="0.5"))
     for ax in axes:
-        ax.set_xlim(-0.1, w + 0.1)
-        ax.set_ylim(-h - 0.1, 0.1)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
         ax.set_xlabel("x across the bed (m)")
     axes[0].set_ylabel("-y along the bed (m)")
-    fig.tight_layout()
+    fig.tight_layout(w_pad=3.0)
     return fig

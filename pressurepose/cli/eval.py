@@ -69,12 +69,12 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
         "posture accuracy (supine / left / right / prone from the estimate's orientation; 'lateral' labels "
         "match either side; the estimate's roll about its long axis, 0 on the back and +-90 degrees on a side, is "
         "reported too), stature error (standing height of the estimated body at zero pose minus the "
-        "measured height), mass error, and the contact IoU of the reconstructed map (PMR) with the input. "
+        "measured height), mass error, and the contact IoU of the estimated body's contact map with the input. "
         "DIR is a PhysioNet PMD experiment folder (I or II, detected) or a labelled folder (images.npy, "
         "labels.csv, mat.json; docs/data.md). Raw readings are weight-normalised to mmHg and resampled "
         "onto the model's mat; inclined-bed recordings are skipped. Writes OUT/metrics.json, OUT/estimates.json "
-        "(one row per estimate), OUT/report.md (tables by posture, confusion matrix) and OUT/gallery.png (best "
-        "and worst cases by contact IoU).")
+        "(one row per estimate), OUT/report.md (tables by posture, confusion matrix) and OUT/gallery.png (the "
+        "best and worst estimates, one image each: posture right or wrong first, then the stature error).")
     p.add_argument("dir", help="real-data folder (PMD experiment I or II, or a labelled folder)")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--model", default=None, help="trained model (default: the shipped PressureNet)")

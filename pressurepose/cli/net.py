@@ -39,19 +39,13 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU (~1.6x faster "
                                                          "where the CPU has bf16 instructions)")
     p.add_argument("--cnn", choices=tuple(CNN_VARIANTS), default=d.cnn,
-                   help="CNN widths: paper (default) or a lighter variant for CPU training (half ~3x, quarter ~8x "
-                        "faster; not shown to be as accurate as the paper's)")
+                   help="CNN widths: paper (default) or half (half as wide, about 3.5x faster to train on a CPU; the "
+                        "shipped model's)")
     p.add_argument("--contact-floor", type=float, default=5.0, metavar="MMHG",
                    help="sensor floor: readings at or below it are dropped from the input and the contact channel, "
                         "in training and in every later use of the model [5: above 99 %% of the faint readings a "
                         "real mat shows away from the body; 0 is the paper's p > 0, which reads a real mat's "
                         "background as body (docs/sim_to_real.md)]")
-    p.add_argument("--cut-feet", type=float, default=0.0, metavar="P",
-                   help="with the noise model, the share of training images cut short at the foot end, as by a "
-                        "mat shorter than the body (the last 1-8 rows of contact dropped; not in the paper) [0]")
-    p.add_argument("--mirror-p", type=float, default=d.mirror_p, metavar="P",
-                   help="chance that a training sample is mirrored left to right in a step (image, joints and "
-                        "maps; not in the paper) [0]")
     p.add_argument("--turn-loss", type=float, default=d.turn_loss, metavar="W",
                    help="weight of a loss on the body's turn about its long axis (the hips' and shoulders' "
                         "left-right axes, apart from the joint distances; not in the paper) [0]")
@@ -66,16 +60,11 @@ def run_train(args) -> int:
     from pressurepose.files import check_output_path
     from pressurepose.net.checkpoint import body_model
     from pressurepose.net.data import load_dataset
-    from pressurepose.net.noise import NoiseConfig
     from pressurepose.net.train import TrainConfig, train
 
     check_output_path(args.out, "--out", directory=True)
     if args.limit is not None and args.limit < 1:
         raise BadInput(f"--limit is {args.limit}; expected a whole number >= 1 (or leave it out for all samples)")
-    if not 0 <= args.cut_feet <= 1:
-        raise BadInput(f"--cut-feet is {args.cut_feet}; expected a share from 0 to 1")
-    if not 0 <= args.mirror_p <= 1:
-        raise BadInput(f"--mirror-p is {args.mirror_p}; expected a chance from 0 to 1")
     if not 0 <= args.turn_loss < float("inf"):
         raise BadInput(f"--turn-loss is {args.turn_loss}; expected a weight >= 0")
     data = load_dataset(args.data, limit=args.limit)
@@ -85,7 +74,6 @@ def run_train(args) -> int:
                          gender_input=args.gender_input, loss_sigmas=args.loss_sigmas, val_fraction=args.val_fraction,
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
                          cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
-                         noise_config=NoiseConfig(cut_feet_p=args.cut_feet), mirror_p=args.mirror_p,
                          turn_loss=args.turn_loss)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
@@ -264,11 +252,19 @@ def run_infer(args) -> int:
         left_out = "" if list(est.frame) == list(range(len(est))) else " (the others blank or start-up frames)"
         print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file}{left_out}, on the {args.mat} mat, "
               f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
-    for i in range(min(len(est), SHOWN_ESTIMATES)):
+    import numpy as np
+
+    from pressurepose.eval.posture import body_stature_mass, posture_of
+    from pressurepose.pose.posture import roll_angle
+
+    shown = min(len(est), SHOWN_ESTIMATES)
+    height, mass = body_stature_mass(net, est.betas[:shown], est.gender[:shown])
+    turn = np.degrees(np.atleast_1d(roll_angle(est.pose[:shown])))
+    for i, posture in enumerate(posture_of(est.pose[:shown])):
         root = est.joints[i, 0]
         name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-        print(f"  {name}: pelvis at ({root[0]:.3f}, {root[1]:.3f}, {root[2]:.3f}) m, betas[:3] "
-              f"{', '.join(f'{b:+.2f}' for b in est.betas[i, :3])}{most_loaded(est, i)}")
+        print(f"  {name}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, {mass[i]:.0f} kg, "
+              f"pelvis at x {root[0]:.2f}, y {root[1]:.2f} m{most_loaded(est, i)}")
     if len(est) > SHOWN_ESTIMATES:
         print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")
     return 0

@@ -17,10 +17,8 @@ def add_settle_argument(p) -> None:
 
     p.add_argument("--settle", choices=SETTLES, default="relaxed",
                    help="how bodies come to rest: neck and spine relax so the head and the heavy pelvis sink "
-                        "onto the bed as people lie (relaxed, default); the paper's joint springs throughout, "
-                        "which hold the head and trunk in their standing shape (paper); or relaxed with limbs "
-                        "damped 5x less than the paper's, so resting hands lie on the bed (relaxed-limbs); "
-                        "docs/physics.md")
+                        "onto the bed as people lie (relaxed, default); or the paper's joint springs throughout, "
+                        "which hold the head and trunk in their standing shape (paper); docs/physics.md")
 
 
 def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
@@ -110,8 +108,8 @@ def run_simulate(args) -> int:
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.sim.bed import bed_for
-    from pressurepose.sim.settle import settle_preset
-    from pressurepose.sim.simulate import simulate_one
+    from pressurepose.sim.settle_config import settle_preset
+    from pressurepose.sim.simulate import Rejected, simulate_one
 
     out = check_output_path(args.out, "--out", suffixes=(".npz",))
     if args.plot:
@@ -137,10 +135,10 @@ def run_simulate(args) -> int:
             sim = simulate_one(body, bed, partition, gender,
                                np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler,
                                settle_config=settle_config)
-            if not isinstance(sim, str):
+            if not isinstance(sim, Rejected):
                 done.append(_record(sim))
                 break
-            rejected[sim] += 1
+            rejected[sim.cause] += 1
         else:
             raise BadInput(f"body {i}: no attempt settled in 100 tries ({dict(rejected)}); the {len(done)} "
                            f"finished bodies are kept in {partial}. Try another --seed or --partition")
@@ -186,17 +184,22 @@ def _plot_simulated(body, bed, done):
     n = len(done)
     fig, axes = plt.subplots(n, 2, figsize=(9, 3.4 * n), gridspec_kw={"width_ratios": [1, 2.6]}, squeeze=False,
                              layout="constrained")
-    for (a_img, a_side), s in zip(axes, done):
+    verts = np.concatenate([body.forward(s["betas"], s["pose"], s["transl"])[0] for s in done])
+    # one frame for every side view, the whole mat's length and every body in it: one scale for all rows
+    side_y = (min(0.0, float(verts[..., 1].min())) - 0.05, max(-extent[2], float(verts[..., 1].max())) + 0.05)
+    side_z = (float(verts[..., 2].min()) - 0.03, float(verts[..., 2].max()) + 0.03)
+    for (a_img, a_side), s, v in zip(axes, done, verts):
         im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax)
         a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
         a_img.set_xlabel("x across the bed (m)")
         a_img.set_ylabel("-y along the bed (m)")
-        verts, _ = body.forward(s["betas"], s["pose"], s["transl"])
-        draw_mesh(a_side, verts[0], body.faces, "bed_side")
+        draw_mesh(a_side, v, body.faces, "bed_side")
         wedge = Wedge.from_array(s["wedge"])
         if wedge is not None:
             _draw_wedge_side(a_side, wedge)
         a_side.axhline(0.0, color="0.4", lw=1)
+        a_side.set_xlim(*side_y)
+        a_side.set_ylim(*side_z)
         a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
         a_side.set_xlabel("y along the bed (m)")
     fig.colorbar(im, ax=axes[:, 0], location="top", aspect=15, label="pressure (mmHg)")

@@ -1,5 +1,5 @@
-"""Summaries of a dataset: counts by partition and gender, rejection rates, pressure statistics, and a
-picture (sample images and histograms)."""
+"""Summaries of a dataset: counts by partition and gender, rejection rates, pressure statistics
+(its picture: :mod:`pressurepose.viz.dataset`)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ import numpy as np
 from pressurepose.data.dataset import DatasetReader
 from pressurepose.data.store import read_shard_arrays
 from pressurepose.errors import BadInput
-from pressurepose.files import save_figure_atomic
 from pressurepose.mat import get_mat
 
 GRAVITY = 9.81
@@ -118,17 +117,16 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
 def settle_line(record) -> str:
     """The joint springs and time step a manifest's settle provenance (``SettleConfig`` as a dict)
     rested bodies with, in words ("" when the manifest has none, as for non-physics producers)."""
-    if not isinstance(record, dict):
+    keys = ("relaxed_neck", "spine_stiffness", "timestep_s", "coarse_factor", "coarse_after_steps")
+    if not isinstance(record, dict) or not all(k in record for k in keys):
         return ""
-    neck = "relaxed neck" if record.get("relaxed_neck", False) else "the paper's stiff neck"
-    k = record.get("spine_stiffness")  # absent: made before the spine could relax
+    neck = "relaxed neck" if record["relaxed_neck"] else "the paper's stiff neck"
+    k = record["spine_stiffness"]
     spine = "the paper's stiff spine" if k is None else f"relaxed spine ({k:g} N m/rad)"
-    dt, factor = record.get("timestep_s", 0.01), record.get("coarse_factor", 1.0)  # absent: made with one step length
+    dt, factor = record["timestep_s"], record["coarse_factor"]
     step = (f"step {dt:g} s throughout" if factor == 1.0 else
-            f"step {dt:g} s, {factor * dt:g} s from {record.get('coarse_after_steps')} steps after touching")
-    limbs = record.get("limb_damping_s")  # absent: the paper's limb damping
-    limbs = "" if limbs is None else f", relaxed limbs (damping {limbs:g} s x stiffness)"
-    return f"{neck}, {spine}{limbs}, {step}"
+            f"step {dt:g} s, {factor * dt:g} s from {record['coarse_after_steps']} steps after touching")
+    return f"{neck}, {spine}, {step}"
 
 
 def format_summary(s: Summary) -> str:
@@ -164,53 +162,3 @@ def format_summary(s: Summary) -> str:
         lines.append(f"incomplete: {inc}")
     return "\n".join(lines)
 
-
-def draw_summary(s: Summary, path: str | Path) -> Path:
-    """Write a PNG: the sample pressure images side by side on top, with one colour scale (mmHg bar to
-    their right), and below them the pressure histogram, the load ratios and the counts."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n_ex = len(s.examples)
-    width = max(10.0, 1.7 * n_ex + 1.0)
-    fig = plt.figure(figsize=(width, 8.0), layout="constrained")
-    top, bottom = fig.subfigures(2, 1, height_ratios=[1.6, 1.0])
-    if s.examples:
-        rows, cols = s.examples[0][1].shape
-        used = n_ex * (4.2 * cols / rows + 0.2) + 1.0  # inches the images (~4.2 in tall) and the bar need
-        if used < width:  # few images: keep them together in the middle of the row, not spread across it
-            margin = (width - used) / 2
-            top = top.subfigures(1, 3, width_ratios=[margin, used, margin])[1]
-        axes = top.subplots(1, n_ex, squeeze=False)[0]
-        vmax = max(float(img.max()) for _, img in s.examples) or 1.0
-        for ax, (title, img) in zip(axes, s.examples):
-            im = ax.imshow(img, cmap="viridis", vmin=0, vmax=vmax, interpolation="nearest")
-            ax.set_title(title, fontsize=7)
-            ax.set_xticks([])
-            ax.set_yticks([])
-        top.colorbar(im, ax=axes, shrink=0.8, label="mmHg")
-    ax_hist, ax_ratio, ax_counts = bottom.subplots(1, 3)
-    ax = ax_hist
-    if s.pressure_hist is not None:
-        hist, edges = s.pressure_hist
-        ax.bar(edges[:-1], hist, width=np.diff(edges), align="edge")
-        ax.set_yscale("log")
-    ax.set_xlabel("pressure of loaded taxels (mmHg)")
-    ax.set_ylabel("taxels")
-    ax = ax_ratio
-    if s.load_ratio is not None:
-        ax.hist(s.load_ratio, bins=40)
-    ax.set_xlabel("force on mat / body weight")
-    ax.set_ylabel("samples")
-    ax = ax_counts
-    labels = sorted(s.counts)
-    ax.barh([f"{p[:14]} {g}{' plo' if plo else ''}" for p, g, plo in labels], [s.counts[k] for k in labels])
-    ax.tick_params(axis="y", labelsize=7)
-    ax.set_xlabel("samples")
-    fig.suptitle(f"{s.root.name}: {s.samples} samples, rejected {100.0 * s.rejection_rate:.1f}%")
-    path = Path(path)
-    save_figure_atomic(fig, path, dpi=100)
-    plt.close(fig)
-    return path

@@ -11,8 +11,9 @@ from functools import lru_cache
 import numpy as np
 
 from pressurepose.body import BodyModel
-from pressurepose.data.producers import Rejected
 from pressurepose.data.schema import GenerationConfig, Sample
+from pressurepose.sim.settle_config import settle_preset
+from pressurepose.sim.simulate import Rejected
 
 
 @lru_cache(maxsize=8)
@@ -36,21 +37,8 @@ def sampler_config(config: GenerationConfig):
 
 
 def settle_config(config: GenerationConfig):
-    """The settle's :class:`~pressurepose.sim.settle.SettleConfig` for a dataset's config."""
-    from pressurepose.sim.settle import settle_preset
-
+    """The settle's :class:`~pressurepose.sim.settle_config.SettleConfig` for a dataset's config."""
     return settle_preset(config.settle)
-
-
-# Settle options added after datasets were made with the settle, with the value every earlier dataset
-# was made with: recorded only when they differ from it, so a dataset begun before them still resumes
-# (and one begun with another value does not).
-_SETTLE_OPTIONS_RECORDED_WHEN_SET = {"lateral_neck_flexion_deg": 0.0, "limb_damping_s": None}
-
-
-def _settle_record(settle) -> dict:
-    return {k: v for k, v in dataclasses.asdict(settle).items()
-            if k not in _SETTLE_OPTIONS_RECORDED_WHEN_SET or v != _SETTLE_OPTIONS_RECORDED_WHEN_SET[k]}
 
 
 def provenance(config: GenerationConfig) -> dict:
@@ -61,7 +49,7 @@ def provenance(config: GenerationConfig) -> dict:
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
     record = {"sampler": dataclasses.asdict(sampler_config(config)),
-              "settle": _settle_record(settle_config(config)), "bed": config.bed_spec().to_dict()}
+              "settle": dataclasses.asdict(settle_config(config)), "bed": config.bed_spec().to_dict()}
     if config.randomize:
         from pressurepose.sim.randomize import RandomizationRanges
 
@@ -88,8 +76,8 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
         conditions = draw_conditions(rng, bed)
     sim = simulate_one(body, bed, config.partition, config.gender, rng, config.limbs_on_bed, sampler, conditions,
                        settle_config=settle_config(config))
-    if isinstance(sim, str):
-        return Rejected(sim)
+    if isinstance(sim, Rejected):
+        return sim
     betas = np.zeros(10)
     betas[: len(sim.betas)] = sim.betas
     img = sim.image

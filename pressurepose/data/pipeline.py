@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Callable
 
 from pressurepose import __version__
-from pressurepose.data.producers import Rejected, attempt_rng, resolve_producer
+from pressurepose.data.producers import attempt_rng, resolve_producer
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.data.store import (
     MANIFEST,
@@ -44,6 +44,7 @@ from pressurepose.data.store import (
 )
 from pressurepose.errors import BadInput, record_difference
 from pressurepose.mat import get_mat
+from pressurepose.sim.simulate import Rejected
 
 
 class GenerationError(RuntimeError):

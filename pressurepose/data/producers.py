@@ -6,7 +6,8 @@ A producer is a plain function
 
 that makes ONE attempt at a labelled sample using only ``rng`` for randomness. It returns a
 :class:`~pressurepose.data.schema.Sample` (its ``index`` is filled in by the pipeline) or
-:class:`Rejected` with a short cause (``"self_collision"``, ``"unstable"``...). The pipeline calls it
+:class:`~pressurepose.sim.simulate.Rejected` with a short cause (``"self_collision"``,
+``"unstable"``...). The pipeline calls it
 for attempt 0, 1, 2, ... of sample ``i`` with :func:`attempt_rng` until one is accepted, so
 rejections are as deterministic as the samples. Expensive set-up (body models, the bed model) belongs
 in a cache inside the producer's module keyed by the (hashable, frozen) config.
@@ -19,20 +20,13 @@ worker processes and on Ray nodes.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
 from typing import Callable, Protocol, Union
 
 import numpy as np
 
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.errors import BadInput
-
-
-@dataclass(frozen=True)
-class Rejected:
-    """An attempt that produced no usable sample; ``cause`` is a short snake_case reason."""
-
-    cause: str
+from pressurepose.sim.simulate import Rejected
 
 
 class Producer(Protocol):

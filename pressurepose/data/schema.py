@@ -152,11 +152,12 @@ def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
     return tuple(sorted(out))
 
 
-# What a config without the sampler and randomisation keys means: the paper's sampler (a manifest
-# written before they existed, or data converted from the paper's release).
-# 0.03 m is the 'centred' spread of the manifests written before the spreads were settings.
-LEGACY_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True,
-                                   "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03}
+# The paper's pose sampler without randomisation: what made the paper's released data (its
+# converted datasets carry these settings), and the reference of :attr:`GenerationConfig.stream_key`,
+# which mixes in only the settings that differ from it. Its spreads (0.03 m) are the reference
+# 'centred' configs' spreads are compared with; the paper's uniform placement does not use them.
+PAPER_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True,
+                                  "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03}
 
 
 @lru_cache(maxsize=16)
@@ -203,10 +204,9 @@ class GenerationConfig:
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
     calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
-    how bodies come to rest (:data:`pressurepose.sim.presets.SETTLES`: 'relaxed', the default,
-    'paper', the paper's joint springs, or 'relaxed-limbs'); like the bed it changes no draw. A
-    manifest written before these existed reads back with :data:`LEGACY_SAMPLING` (the paper's sampler, no randomisation),
-    the default bed and the 'relaxed' settle (its provenance records the constants that made it).
+    how bodies come to rest (:data:`pressurepose.sim.presets.SETTLES`: 'relaxed', the default, or
+    'paper', the paper's joint springs); like the bed it changes no draw. The saved record
+    (:meth:`to_dict`) leaves out the bed and the settle at their defaults.
 
     Sample ``i`` depends only on (seed, partition, gender, limbs_on_bed, the sampler and
     randomisation settings, i) for its random draws, so ``count`` and ``shard_size`` do not change it.
@@ -292,11 +292,10 @@ class GenerationConfig:
     @property
     def stream_key(self) -> int:
         """32-bit key of (partition, gender, limbs_on_bed and the sampler and randomisation settings
-        where they differ from :data:`LEGACY_SAMPLING`) mixed into every sample's seed, so that two
-        partitions run with the same seed still draw different bodies, and a legacy config keeps
-        its key."""
+        where they differ from :data:`PAPER_SAMPLING`) mixed into every sample's seed, so that two
+        partitions or samplers run with the same seed draw different bodies."""
         text = f"{self.partition}|{self.gender}|{int(bool(self.limbs_on_bed))}"
-        extra = [f"{k}={getattr(self, k)}" for k in LEGACY_SAMPLING if getattr(self, k) != LEGACY_SAMPLING[k]
+        extra = [f"{k}={getattr(self, k)}" for k in PAPER_SAMPLING if getattr(self, k) != PAPER_SAMPLING[k]
                  and not (k.startswith("across_sd") and self.placement != "centred")]  # spreads only 'centred' uses
         if extra:
             text += "|" + "|".join(extra)
@@ -310,9 +309,9 @@ class GenerationConfig:
         if self.bed:
             d["bed"] = json.loads(self.bed)
         else:
-            del d["bed"]  # the default bed: configs written before beds could be given keep their digest
+            del d["bed"]  # the default bed and settle are left out of the record and so of the digest
         if self.settle == "relaxed":
-            del d["settle"]  # likewise the default settle
+            del d["settle"]
         return d
 
     def to_json(self) -> str:
@@ -331,11 +330,15 @@ class GenerationConfig:
         unknown = sorted(set(d) - known)
         if unknown:
             raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
+        missing = sorted(known - set(d) - {"bed", "settle"})  # to_dict leaves those two out at their defaults
+        if missing:
+            raise BadInput(f"{what}: lacks {', '.join(missing)}; a dataset's config records every setting "
+                           f"(the bed and the settle only when not the defaults)")
         d = dict(d)
         if isinstance(d.get("bed"), dict):
             d["bed"] = json.dumps(d["bed"], sort_keys=True)
         try:
-            return cls(**{**LEGACY_SAMPLING, **d})
+            return cls(**d)
         except TypeError as exc:
             raise BadInput(f"{what}: {exc}") from None
 

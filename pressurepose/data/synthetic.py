@@ -21,10 +21,10 @@ import time
 import numpy as np
 
 from pressurepose.body.toy import TOY_REST_JOINTS
-from pressurepose.data.producers import Rejected
 from pressurepose.data.resample import MMHG_PA
 from pressurepose.data.schema import GenerationConfig, Sample
 from pressurepose.mat import get_mat
+from pressurepose.sim.simulate import Rejected
 
 GRAVITY = 9.81
 DEPTH_EMPTY_M = 1.0  # depth where no body is above a taxel, as pressurepose.sim.press reports it

@@ -420,7 +420,6 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         check_pressure,
         estimate,
         resolve_model,
-        vertex_sites_of,
     )
     from pressurepose.pose.posture import roll_angle
 
@@ -438,9 +437,9 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
     for s in tqdm(range(0, len(idx), chunk), desc="monitor", unit="chunk", disable=not progress):
         part = idx[s:s + chunk]
-        est = estimate(p[part], gender, net, batch_size=batch_size, sites=False)
+        est = estimate(p[part], gender, net, batch_size=batch_size)
         roll[s:s + len(part)] = roll_angle(est.pose)
-        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, vertex_sites_of(net, est.gender), grid)
+        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid)
     return timeline(t, p, selection, roll, maps, grid, config)
 
 

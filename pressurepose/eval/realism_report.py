@@ -333,7 +333,9 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
             ax = fig.add_subplot(row[6])
             for name in ("real", "simulated"):
                 y = np.asarray(profile[name])
-                ax.plot(y, 100 * profile["band"] * (np.arange(len(y)) + 0.5), color=colours[name], marker="o", ms=3)
+                ax.plot(y, 100 * profile["band"] * (np.arange(len(y)) + 0.5), color=colours[name], marker="o", ms=3,
+                        label=name)
+            ax.legend(fontsize=7)
             ax.invert_yaxis()
             ax.set_ylabel("below the head end, % of stature")
             ax.set_xlabel("% of the load per band")
@@ -352,7 +354,8 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
                 ax.set_xticks([])
                 ax.set_yticks([])
         if im is not None:
-            fig.colorbar(im, cax=fig.add_subplot(imgs[-1]), label="mmHg")
+            # the scale ends at the 99th percentile of contact pressures: the few above it saturate
+            fig.colorbar(im, cax=fig.add_subplot(imgs[-1]), label="mmHg", extend="max")
     fig.suptitle(f"{real.name} vs {sim.name} on the {sim.mat.name} mat (contact > {rule.contact_mmhg:g} mmHg)",
                  fontsize=12, y=0.999)
     save_figure_atomic(fig, path, dpi=90)

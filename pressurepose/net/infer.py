@@ -14,7 +14,8 @@ A real recording on any mat (``mat=``) is read by
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import weakref
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Sequence
@@ -39,6 +40,7 @@ from pressurepose.files import (
 )
 from pressurepose.mat import MatSpec
 from pressurepose.net.model import GENDER_CODES, PressureNet
+from pressurepose.net.pmr import PMRConfig, surface_maps
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
@@ -49,15 +51,20 @@ class Estimate:
     """PressureNet's estimate for a batch of B images (numpy, bed frame, metres and radians).
 
     betas (B, 10); pose (B, 72) SMPL axis-angle (root first); transl (B, 3); joints (B, 24, 3);
-    vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); q (B, R, C) the
-    reconstructed pressure map (PMR sink depth, mm); contact (B, R, C) PMR's contact map;
+    vertices (B, V, 3); faces (F, 3); pressure (B, R, C) the input (mmHg); :attr:`q` (B, R, C) the
+    reconstructed pressure map of the body (its sink below the mattress top, mm, read from its
+    lower surface as the simulator reads a body: :func:`pressurepose.net.pmr.surface_maps`, with
+    ``pmr``'s settings) and :attr:`contact` (B, R, C) its contact map (1 where the body is below
+    the mattress top), both computed when first read (about 25 ms a body on one CPU core);
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
-    given on the model's mat); sites: the load on each body site under the estimated body
+    given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
+    (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
+    read (a few ms a body): :attr:`sites`, the load on each body site under the estimated body
     (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
-    :data:`~pressurepose.body.sites.SITES`); vertex_pressure (B, V) mmHg on the body's surface
-    (:func:`~pressurepose.body.sites.vertex_pressure`). Both None when not asked for.
+    :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
+    surface (:func:`~pressurepose.body.sites.vertex_pressure`).
     """
 
     betas: np.ndarray
@@ -67,18 +74,36 @@ class Estimate:
     vertices: np.ndarray
     faces: np.ndarray
     pressure: np.ndarray
-    q: np.ndarray
-    contact: np.ndarray
     gender: list[str]
     mod1_joints: np.ndarray
     grid: MatSpec
     mirror: bool = False
     frame: np.ndarray | None = None
-    sites: SiteLoads | None = None
-    vertex_pressure: np.ndarray | None = None
+    pmr: PMRConfig = PMRConfig()
+    vertex_site: np.ndarray | None = None
+    _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
+    _sites: tuple[SiteLoads, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
+
+    def _surface_maps(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._maps is None:
+            verts, faces = torch.from_numpy(np.asarray(self.vertices, np.float32)), torch.from_numpy(self.faces)
+            maps = [surface_maps(verts[s:s + 32], faces, self.grid, self.pmr) for s in range(0, len(self), 32)]
+            self._maps = (torch.cat([m.q for m in maps]).float().numpy(),
+                          torch.cat([m.contact for m in maps]).float().numpy())
+        return self._maps
+
+    @property
+    def q(self) -> np.ndarray:
+        """(B, R, C) the body's sink below the mattress top per taxel, mm (0 where it does not sink)."""
+        return self._surface_maps()[0]
+
+    @property
+    def contact(self) -> np.ndarray:
+        """(B, R, C) 1 where the body's lower surface is below the mattress top, else 0."""
+        return self._surface_maps()[1]
 
     def to_records(self) -> list[dict]:
         """One JSON-ready dict per image."""
@@ -86,11 +111,29 @@ class Estimate:
         return [{**frame[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
+    def _site_loads(self) -> tuple[SiteLoads, np.ndarray] | None:
+        if self._sites is None and self.vertex_site is not None:
+            self._sites = (site_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid),
+                           vertex_pressure(self.pressure, self.vertices, self.faces, self.grid))
+        return self._sites
+
+    @property
+    def sites(self) -> SiteLoads | None:
+        """The load on each body site under each estimated body (None without ``vertex_site``)."""
+        loads = self._site_loads()
+        return None if loads is None else loads[0]
+
+    @property
+    def vertex_pressure(self) -> np.ndarray | None:
+        """(B, V) mmHg on each body's surface (None without ``vertex_site``)."""
+        loads = self._site_loads()
+        return None if loads is None else loads[1]
+
     def sites_record(self) -> dict:
         """The per-site loads as a strict-JSON-ready dict: one entry per image (its frame, the most
         loaded site and every site's peak_mmhg, mean_mmhg, area_cm2 and share)."""
         if self.sites is None:
-            raise BadInput("this estimate has no site loads (estimate(..., sites=True) computes them)")
+            raise BadInput("this estimate has no body sites (vertex_site); estimate() gives them")
         images = []
         for i, (rec, top) in enumerate(zip(self.sites.to_records(), self.sites.most_loaded())):
             frame = {} if self.frame is None else {"frame": int(self.frame[i])}
@@ -312,8 +355,7 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
 
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
              progress: bool = False, mirror: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
-             gain: float | None = None, head_row: str = "first", what: str | None = None,
-             sites: bool = True) -> Estimate:
+             gain: float | None = None, head_row: str = "first", what: str | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch); or,
@@ -330,8 +372,6 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     mirror: also read each image's left-right mirror and average the two bodies
     (:mod:`pressurepose.net.mirror`; about twice the work).
     what: the input's name in messages (default: the file, or 'pressure').
-    sites: also split each image's load over the body sites of its estimated body and put the
-    pressure on the body's surface (``Estimate.sites``, ``Estimate.vertex_pressure``).
 
     Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings`) about empty images and
     readings above the sensor's range; BadInput when every image is empty or readings lie beyond
@@ -368,20 +408,22 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         items = [fn(o1, o2) for o1, o2 in parts]
         return (items[0] if len(items) == 1 else torch.cat(items)).float().cpu().numpy()
 
-    vertices, faces = cat(lambda a, b: b.vertices), net.body.faces.cpu().numpy()
-    loads = site_loads(arr, vertices, faces, vertex_sites_of(net, genders), net.config.grid) if sites else None
     return Estimate(betas=cat(lambda a, b: b.params.betas), pose=cat(lambda a, b: b.params.pose),
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
-                    vertices=vertices, faces=faces,
-                    pressure=arr, q=cat(lambda a, b: b.maps.q), contact=cat(lambda a, b: b.maps.contact),
-                    gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid, mirror=bool(mirror),
-                    frame=frame, sites=loads,
-                    vertex_pressure=vertex_pressure(arr, vertices, faces, net.config.grid) if sites else None)
+                    vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
+                    pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
+                    mirror=bool(mirror), frame=frame, pmr=net.config.pmr, vertex_site=vertex_sites_of(net, genders))
+
+
+_VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def vertex_sites_of(net: PressureNet, genders: Sequence[str]) -> np.ndarray:
     """(B, V) int8 body site (:func:`pressurepose.body.sites.vertex_sites`) of every vertex of the
-    network's body of each image's gender ('f' / 'm')."""
-    layers = net.body.layers
-    per = {"f": vertex_sites(layers[0]), "m": vertex_sites(layers[-1])}
+    network's body of each image's gender ('f' / 'm'); each body's sites are worked out once."""
+    per = {}
+    for g, layer in zip("fm", (net.body.layers[0], net.body.layers[-1])):
+        if layer not in _VERTEX_SITES:
+            _VERTEX_SITES[layer] = vertex_sites(layer)
+        per[g] = _VERTEX_SITES[layer]
     return np.stack([per[g] for g in genders]) if len(genders) else np.zeros((0, len(per["f"])), np.int8)

@@ -1,5 +1,5 @@
-"""Left-right mirroring of images, bodies and training samples; test-time mirror averaging (read an
-image and its mirror, and average the two bodies).
+"""Left-right mirroring of images and bodies; test-time mirror averaging (read an image and its
+mirror, and average the two bodies).
 
 A bed, a mat and the body models are symmetric across the bed's long axis (the default bodies'
 rest joints to 0.02 mm, posed joints over random shapes and poses to 2 mm), so the mirror of a pressure image (its columns reversed) is the
@@ -20,9 +20,6 @@ averaged body is posed again, with its PMR maps. A network that read a mirrored 
 the mirror of what it read from the image gives the same body either way; one with a left/right
 bias (a trained network has some) gives the average of both readings. Each module's estimate is
 averaged on its own; Mod2 refines each branch's own Mod1 estimate.
-
-:func:`mirror_some` mirrors chosen samples of a training batch (the images, their ground-truth maps
-and joints; the shape is unchanged): training's ``mirror_p`` (``train --mirror-p``).
 """
 
 from __future__ import annotations
@@ -140,14 +137,3 @@ def mirror_averaged(net, pressure: torch.Tensor, gender: torch.Tensor):
         averaged.append(net.pose_body(average_with_mirrored(direct, mirrored, width), gender, maps=maps))
     return tuple(averaged)
 
-
-def mirror_some(flip: torch.Tensor, width_m: float, images: torch.Tensor, joints: torch.Tensor,
-                *maps: torch.Tensor | None) -> tuple:
-    """(images, joints, *maps) with the samples where ``flip`` (B,) bool is True mirrored: images
-    (B, R, C) and maps (B, R, C) (None passes through) column-reversed, joints (B, 24, 3) by
-    :func:`mirror_joints` (shape labels need no change). Element-wise selection, so no sample count is read back from a GPU."""
-    f2 = flip[:, None, None]
-    out = [torch.where(f2, mirror_images(images), images),
-           torch.where(f2, mirror_joints(joints, width_m).to(joints.dtype), joints)]
-    out += [None if m is None else torch.where(f2, mirror_images(m), m) for m in maps]
-    return tuple(out)

@@ -43,7 +43,7 @@ class NetConfig:
     gender_input: append the gender flag to the CNN features (not in the paper; default off).
     dropout: CNN dropout probability (paper 0.1).
     cnn_channels: the widths of the CNN's four conv layers (the paper's (192, 192, 384, 384); see
-    :data:`pressurepose.net.cnn.CNN_VARIANTS` for lighter ones).
+    :data:`pressurepose.net.cnn.CNN_VARIANTS` for the named widths).
     """
 
     grid: MatSpec
@@ -64,8 +64,7 @@ class NetConfig:
         d = dict(d)
         out = d.pop("outputs")
         out = OutputConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
-        if "cnn_channels" in d:  # absent from models saved before it existed: the paper's
-            d["cnn_channels"] = tuple(int(c) for c in d["cnn_channels"])
+        d["cnn_channels"] = tuple(int(c) for c in d["cnn_channels"])
         return NetConfig(grid=MatSpec.from_dict(d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
                          pmr=PMRConfig(**d.pop("pmr")), **d)
 

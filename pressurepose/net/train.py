@@ -47,12 +47,11 @@ from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.cnn import CNN_VARIANTS
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
-from pressurepose.net.mirror import mirror_some
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import NoiseConfig, add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import PMRConfig, pmr
-from pressurepose.net.transforms import InputConfig, apply_floor, to_device_async
+from pressurepose.net.transforms import InputConfig, apply_floor
 
 LR_SCHEDULES = ("constant", "cosine")
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
@@ -72,13 +71,11 @@ class TrainConfig:
     save_every: epochs between resumable states (the last epoch of each stage is always saved).
     device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
     cnn: the CNN's widths, a name in :data:`pressurepose.net.cnn.CNN_VARIANTS` ("paper", the
-    default, or a lighter variant for CPU training, not shown to be as accurate). cpu_amp: run the
+    default, or "half", half as wide: about 3.5x faster to train on a CPU; the shipped model's). cpu_amp: run the
     CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
     layer, PMR and losses stay float32), like ``amp`` on CUDA. contact_floor_mmhg: the input's
     sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
-    as contact); the model keeps it, so inference applies the same floor. mirror_p: the chance
-    that a training sample is mirrored left to right in a step (its image, joints and ground-truth
-    maps; :func:`pressurepose.net.mirror.mirror_some`); 0, the paper's, never does. turn_loss:
+    as contact); the model keeps it, so inference applies the same floor. turn_loss:
     weight of the turn term (:func:`pressurepose.net.losses.turn_error`) in both modules' losses;
     0, the paper's, leaves it out.
     """
@@ -108,7 +105,6 @@ class TrainConfig:
     cnn: str = "paper"
     cpu_amp: bool = False
     contact_floor_mmhg: float = 0.0
-    mirror_p: float = 0.0
     turn_loss: float = 0.0
 
     def __post_init__(self):
@@ -134,8 +130,6 @@ class TrainConfig:
             raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
         if not 0 <= self.contact_floor_mmhg < float("inf"):
             raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
-        if not 0 <= self.mirror_p <= 1:
-            raise BadInput(f"mirror_p = {self.mirror_p}; expected a chance from 0 to 1")
         if not 0 <= self.turn_loss < float("inf"):
             raise BadInput(f"turn_loss = {self.turn_loss}; expected a weight >= 0")
         if self.cnn not in CNN_VARIANTS:
@@ -184,27 +178,6 @@ def as_training_data(data: Mapping, grid: MatSpec) -> dict[str, torch.Tensor]:
     if n < 1:
         raise BadInput("training data is empty")
     return out
-
-
-def _with_defaults(stored: dict | None) -> dict | None:
-    """A stored run identity with the fields added since it was written at their defaults (so
-    that runs started before them still resume)."""
-    if not isinstance(stored, dict):
-        return stored
-    stored = json.loads(json.dumps(stored))
-    if isinstance(stored.get("train"), dict):
-        stored["train"].setdefault("cnn", "paper")
-        stored["train"].setdefault("contact_floor_mmhg", 0.0)
-        stored["train"].setdefault("mirror_p", 0.0)
-        stored["train"].setdefault("turn_loss", 0.0)
-        if isinstance(stored["train"].get("noise_config"), dict):
-            stored["train"]["noise_config"].setdefault("cut_feet_p", 0.0)
-            stored["train"]["noise_config"].setdefault("cut_feet_rows", 8)
-    if isinstance(stored.get("net"), dict):
-        stored["net"].setdefault("cnn_channels", list(CNN_VARIANTS["paper"]))
-        if isinstance(stored["net"].get("inputs"), dict):
-            stored["net"]["inputs"].setdefault("contact_floor_mmhg", 0.0)
-    return stored
 
 
 def _fingerprint(data: dict[str, torch.Tensor]) -> str:
@@ -415,8 +388,8 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                        f"state.json and state.safetensors to start the run afresh, or use another --out") from None
     if record is not None and not isinstance(record, dict):
         raise BadInput(f"{state_path} is not a training state; use another --out")
-    if record is not None and _with_defaults(record.get("identity")) != identity:
-        old = _with_defaults(record.get("identity"))
+    if record is not None and record.get("identity") != identity:
+        old = record.get("identity")
         what = record_difference(old, identity) if isinstance(old, dict) else "an unreadable record"
         raise BadInput(f"{out_dir} holds a training run with a different config, body model or data ({what}); "
                        f"use another output folder (nothing was overwritten)")
@@ -471,7 +444,6 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                 torch.manual_seed(seed)
                 gen = torch.Generator().manual_seed(seed)
                 noise_gen = torch.Generator().manual_seed(seed + 1) if config.noise else None
-                mirror_gen = torch.Generator().manual_seed(seed + 2) if config.mirror_p > 0 else None
                 order = train_idx[torch.randperm(len(train_idx), generator=gen).to(train_idx.device)]
                 net.train()
                 net.mod1.train(stage == 1)
@@ -489,9 +461,6 @@ def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(
                     gender = data["gender"][idx].to(device)
                     joints, betas = data["joints"][idx].to(device), data["betas"][idx].to(device)
                     q_b, c_b = (q_true[idx].to(device), c_true[idx].to(device)) if l2 else (None, None)
-                    if mirror_gen is not None:
-                        flip = to_device_async(torch.rand(len(idx), generator=mirror_gen) < config.mirror_p, device)
-                        pressure, joints, q_b, c_b = mirror_some(flip, grid.size_m[0], pressure, joints, q_b, c_b)
                     with torch.autocast(device.type, dtype=amp_dtype, enabled=use_amp):
                         out = _forward(net, stage, pressure, gender, noise_gen, config, maps=l2)
                         if l2:

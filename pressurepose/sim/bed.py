@@ -233,6 +233,10 @@ class BedSpec:
         bad = set(d["mat"]) - known_mat | set(d) - known_bed
         if bad:
             raise BadInput(f"bed record has unknown fields {sorted(bad)}")
+        missing = sorted(known_bed - set(d))
+        if missing:
+            raise BadInput(f"bed record lacks {', '.join(missing)}; expected every field of a bed "
+                           f"(BedSpec.to_dict, or a `pressurepose calibrate --out` file)")
         try:
             mat = MatSpec(**d["mat"])
             rest = {k: v for k, v in d.items() if k != "mat"}

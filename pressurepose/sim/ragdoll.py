@@ -4,7 +4,8 @@ One MuJoCo body per capsule (the 20 SMPLify capsules of :mod:`pressurepose.body.
 kinematic tree; the root (pelvis) hangs on a free joint, knees and elbows on hinges, every other joint
 is a ball. Each body carries its capsule as a geom with the capsule's mass and inertia
 (:mod:`pressurepose.body.masses`), joint springs that rest at the *home pose* (arms at the sides,
-legs straight) and damping 15 x stiffness (paper appendix A.2).
+legs straight) and damping 15 x stiffness (paper appendix A.2; their numbers:
+:mod:`pressurepose.sim.springs`).
 
 Frames. MuJoCo's world is the bed frame (z up). The body frames are the capsules' *rest joint
 frames* moved with the body: origin at the joint, axes parallel to the z-up world axes when the body
@@ -53,63 +54,21 @@ from pressurepose.body.masses import (
 )
 from pressurepose.body.model import canonical_gender
 from pressurepose.errors import BadInput
+from pressurepose.sim.springs import (
+    DAMPING_PER_STIFFNESS_S,
+    MEAN_MASS_KG,
+    MEAN_STIFFNESS,
+    NECK_JOINTS,
+    RELAXED_NECK_DAMPING_S,
+    RELAXED_NECK_STIFFNESS,
+    RELAXED_SPINE_STIFFNESS,
+    SPINE_JOINTS,
+)
 
 Q = Y_UP_TO_Z_UP
 
-# Mean body mass the joint stiffnesses are quoted for (Tozeren's averages, as in the paper's public code;
-# appendix A.2); neutral = their mean.
-MEAN_MASS_KG = {"female": 62.5, "male": 78.4, "neutral": (62.5 + 78.4) / 2}
-# Joint stiffness of the average body, N m / rad, by SMPL joint (paper appendix A.2). Collars count as
-# shoulders: the sampler splits one shoulder rotation 1 : 2 between collar and shoulder joint.
-_STIFFNESS_BY_NAME = {
-    "left_hip": 6.0, "right_hip": 6.0, "left_knee": 3.0, "right_knee": 3.0, "left_ankle": 6.0,
-    "right_ankle": 6.0, "spine1": 200.0, "spine2": 200.0, "spine3": 200.0, "neck": 200.0, "head": 200.0,
-    "left_collar": 4.0, "right_collar": 4.0, "left_shoulder": 4.0, "right_shoulder": 4.0,
-    "left_elbow": 2.0, "right_elbow": 2.0, "left_wrist": 4.0, "right_wrist": 4.0,
-}
-MEAN_STIFFNESS = np.array([_STIFFNESS_BY_NAME.get(n, 0.0) for n in JOINT_NAMES])
-DAMPING_PER_STIFFNESS_S = 15.0
-# A relaxed neck (default; ``relaxed_neck=False`` keeps the paper's 200 N m/rad): the neck and head
-# joints of the average body get this stiffness (N m/rad, scaled by mass like the others) and
-# damping of RELAXED_NECK_DAMPING_S x stiffness. The paper's springs hold the head in its standing
-# pose, and a supine head's back lies 2-5 cm above where the upper back has sunk to, so half the
-# supine heads left no imprint (real, PMD-I: 99 %). A head of ~4.5 kg on a ~0.1 m lever pulls with
-# ~4 N m: soft enough springs let it fall onto the bed within the settle's first 0.5 s, and less
-# damping (15 x stiffness would be a 15 s time constant) lets it get there before the resting test.
-RELAXED_NECK_STIFFNESS = 10.0
-RELAXED_NECK_DAMPING_S = 0.3
-NECK_JOINTS = (JOINT_NAMES.index("neck"), JOINT_NAMES.index("head"))
-# A relaxed spine (default; the paper's 200 N m/rad with ``spine_stiffness=None``): the spine1-3
-# joints of the average body get this stiffness (N m/rad, scaled by mass; damping 15 x stiffness as
-# the paper's). The paper's springs hold the trunk in its standing curvature, so a supine trunk
-# rests as one rigid piece and carries its weight on the shoulders and calves as much as on the
-# pelvis (simulated pelvis band 24 % of the load against 29-31 % on PMD-I's supine people).
-# Lying people do not hold their spine: with springs ten times softer the trunk bends and the
-# heavy pelvis sinks deepest, as on real mats (docs/physics.md, "Relaxed spine"; the value was
-# chosen among 200, 40, 20, 10 and 4 on PMD-I's region shares, benchmarks/bench_spine.py).
-RELAXED_SPINE_STIFFNESS = 20.0
-SPINE_JOINTS = tuple(JOINT_NAMES.index(n) for n in ("spine1", "spine2", "spine3"))
-# Relaxed limbs (``limb_damping_s``; None keeps the paper's 15 s): the damping of the limb joints (hips,
-# knees, ankles, collars, shoulders, elbows, wrists) as this many seconds x their stiffness. With the
-# paper's 15 s an arm held up only by its relaxed shoulder falls at about the settle's resting speed
-# (gravity ~9 N m on a shoulder damped at 60 N m s/rad: 0.15 rad/s, 5-9 cm/s at the hand), so the
-# resting test cannot tell a falling limb from one at rest and stops most supine bodies with their
-# hands in the air (docs/physics.md, "Relaxed limbs"). 3 s is the least damping at which the
-# ball-joint limit penalty stays stable at the settle's coarse 0.02 s step
-# (dt x LIMIT_STIFFNESS_FACTOR / damping-per-stiffness <= 2, see below) for a joint reaching its limit;
-# one started far past it is damped as the paper's until back inside (settle._BallLimits). An option,
-# not the default.
-RELAXED_LIMB_DAMPING_S = 3.0
-LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{n}") for side in ("left", "right")
-                    for n in ("hip", "knee", "ankle", "collar", "shoulder", "elbow", "wrist"))
 # hinge joints: SMPL joint -> SMPL local axis (knees x, elbows y), as in pressurepose.pose.limits
 HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
-# Penalty stiffness of the ball-joint limits, as a multiple of the joint's own stiffness. The settle
-# step treats joint damping (15 x stiffness) implicitly and this torque explicitly, which is stable
-# while dt * limit_stiffness / damping < 2, i.e. factor < 3000 at dt = 0.01 s; 300 holds a whole
-# leg's weight (~60 N m on a hip of stiffness 6) within 2 degrees of the limit.
-LIMIT_STIFFNESS_FACTOR = 300.0
-
 # Collision bits: the bed's cells collide with every capsule; capsules of the distal limbs collide
 # with every other capsule but their parent's and children's (MuJoCo filters parent-child pairs), as
 # the pose sampler's self-collision check has it; the trunk capsules do not collide with each other
@@ -126,18 +85,6 @@ TRUNK_SIDE_JOINTS = {
 MIN_CONTACT_LENGTH_M = 1e-3
 SELF_COLLIDING = ("left_calf", "right_calf", "left_foot", "right_foot", "left_forearm", "right_forearm",
                   "left_hand", "right_hand")
-
-
-def flexed_neck_home(home: np.ndarray, flexion_rad: float) -> np.ndarray:
-    """A copy of a ragdoll's spring rest pose ``home`` (20, 3) (SMPL axis-angle per capsule, as
-    :attr:`RagdollParams.home`) with the neck and head joints flexed forward by ``flexion_rad`` in
-    all, half at each (SMPL's x axis: + brings the chin toward the chest)."""
-    out = np.array(home, dtype=np.float64, copy=True)
-    if out.shape != (len(CAPSULE_JOINTS), 3):
-        raise BadInput(f"home has shape {out.shape}; expected ({len(CAPSULE_JOINTS)}, 3)")
-    k = [list(CAPSULE_JOINTS).index(j) for j in NECK_JOINTS]
-    out[k, 0] += float(flexion_rad) / 2
-    return out
 
 
 def home_pose() -> np.ndarray:
@@ -285,19 +232,17 @@ def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,
                    masses: CapsuleMasses | None = None, limits=None, relaxed_neck: bool = True,
-                   spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS,
-                   limb_damping_s: float | None = None) -> RagdollParams:
+                   spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS) -> RagdollParams:
     """The ragdoll of ``body`` with shape ``betas`` (S,).
 
     gender: the mass table and the mean mass that scales the joint stiffness (default the body's);
     caps, masses: precomputed capsules / masses (default :func:`capsules_for`, :func:`segment_masses`);
     limits: a ``pressurepose.pose.limits.JointLimits`` (default the nominal ``joint_limits()``).
-    relaxed_neck: soft neck and head joints (:data:`RELAXED_NECK_STIFFNESS`) so the head rests on
-    the bed; False: the paper's stiffness.
+    relaxed_neck: soft neck and head joints
+    (:data:`~pressurepose.sim.springs.RELAXED_NECK_STIFFNESS`) so the head rests on the bed; False:
+    the paper's stiffness.
     spine_stiffness: N m/rad of the spine1-3 joints for the average body (scaled by mass like the
-    others; default :data:`RELAXED_SPINE_STIFFNESS`); None: the paper's 200.
-    limb_damping_s: damping of the :data:`LIMB_JOINTS` as seconds x their stiffness (None: the
-    paper's :data:`DAMPING_PER_STIFFNESS_S`).
+    others; default :data:`~pressurepose.sim.springs.RELAXED_SPINE_STIFFNESS`); None: the paper's 200.
     """
     from pressurepose.pose.limits import joint_limits
 
@@ -328,12 +273,6 @@ def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | N
         spine = np.isin(joints, SPINE_JOINTS)
         stiffness[spine] = scale * float(spine_stiffness)
         damping[spine] = DAMPING_PER_STIFFNESS_S * stiffness[spine]
-    if limb_damping_s is not None:
-        if isinstance(limb_damping_s, bool) or not isinstance(limb_damping_s, (int, float, np.integer, np.floating)) \
-                or not math.isfinite(limb_damping_s) or limb_damping_s <= 0:
-            raise BadInput(f"limb_damping_s is {limb_damping_s!r}; expected a positive number of seconds or None")
-        limb = np.isin(joints, LIMB_JOINTS)
-        damping[limb] = float(limb_damping_s) * stiffness[limb]
     com, inertia_full = joint_frame_mass_properties(masses, caps)
     principal, axes = np.linalg.eigh(inertia_full)
     axes = axes * np.where(np.linalg.det(axes) < 0, -1.0, 1.0)[:, None, None]  # proper rotations

@@ -1,6 +1,7 @@
 """One body through both simulations: sample -> settle (MuJoCo) -> press (mesh on the bed) -> mat image.
 
-The labels describe the body where the image was made: the press's small rigid correction (a
+:func:`simulate_one` makes one attempt: a :class:`Simulated` body, or :class:`Rejected` with the
+cause. The labels describe the body where the image was made: the press's small rigid correction (a
 tilt about the centre of mass and a vertical shift) is folded into the root orientation and
 translation, so ``BodyModel.forward(betas, pose, transl)`` reproduces the pressed mesh exactly.
 """
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +21,11 @@ from pressurepose.body.lbs_numpy import (
     rotation_to_axis_angle,
     shaped_rest,
 )
+
+if TYPE_CHECKING:
+    from pressurepose.sim.press import PressResult
+    from pressurepose.sim.randomize import Conditions
+    from pressurepose.sim.wedge import Wedge
 
 # joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
 LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right")
@@ -45,11 +52,31 @@ class Simulated:
     joints: np.ndarray
     mass: float
     height: float
-    image: object
+    image: PressResult
     settle_steps: int
-    conditions: object = None
-    wedge: object = None
+    conditions: Conditions | None = None
+    wedge: Wedge | None = None
     wedge_force: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """An attempt that produced no usable sample.
+
+    cause: a short snake_case reason. From :func:`simulate_one`: a settle's status other than
+    'settled' (:data:`pressurepose.sim.settle.STATUSES`: ``not_settled``, ``unstable``,
+    ``fell_off_bed``, ``posture_changed``, ``self_collision``, ``support_overlap``),
+    ``limb_off_bed`` or ``press_failed``; another producer
+    (:mod:`pressurepose.data.producers`) names its own. detail: what happened, in words ("" when
+    the cause says it all).
+    """
+
+    cause: str
+    detail: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.cause, str) or not self.cause:
+            raise TypeError(f"Rejected cause is {self.cause!r}; expected a short snake_case reason")
 
 
 def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.ndarray,
@@ -99,10 +126,11 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
                  limbs_on_bed: bool = False, sampler=None, conditions=None, timings: dict | None = None,
-                 settle_config=None) -> Simulated | str:
-    """One attempt: a :class:`Simulated` body, or the rejection cause (str) when settling or
-    pressing fails, or ``limb_off_bed`` when a limb hangs over the mattress's edge at rest
-    (:func:`limb_off_bed`) and the sampler does not allow hanging limbs. All randomness comes from
+                 settle_config=None) -> Simulated | Rejected:
+    """One attempt: a :class:`Simulated` body, or :class:`Rejected` when settling fails (the
+    settle's status), when pressing fails (``press_failed``) or when a limb hangs over the
+    mattress's edge at rest (``limb_off_bed``, :func:`limb_off_bed`) and the sampler does not allow
+    hanging limbs. All randomness comes from
     ``rng``. ``sampler``: the pose sampler's :class:`~pressurepose.pose.config.SamplerConfig`
     (default: its defaults). ``conditions`` (:class:`~pressurepose.sim.randomize.Conditions`):
     settle on ``bed``, then press and read the body on ``conditions.bed(bed)``, the mat moved under
@@ -114,7 +142,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
 
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
     ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
-    :class:`~pressurepose.sim.settle.SettleConfig` (default: its defaults, the "relaxed" settle)."""
+    :class:`~pressurepose.sim.settle_config.SettleConfig` (default: its defaults, the "relaxed" settle)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one
@@ -132,10 +160,12 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     t2 = time.process_time()
     clock.update(sample=t1 - t0, settle=t2 - t1, press=0.0, steps=int(rest.steps))
     if not rest.ok:
-        return rest.status
+        steps = f"{rest.steps} settle step{'' if rest.steps == 1 else 's'}"
+        moved = f", ended {rest.posture}" if rest.posture != rest.posture_start else ""
+        return Rejected(rest.status, f"{steps}, started {rest.posture_start}{moved}")
     verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
     if not (SamplerConfig() if sampler is None else sampler).hanging_limbs and limb_off_bed(joints[0], bed):
-        return "limb_off_bed"
+        return Rejected("limb_off_bed")
     pose, transl, press_bed = rest.pose, rest.transl, bed
     wedge, points = rest.wedge, rest.wedge_points
     if conditions is not None:
@@ -156,8 +186,8 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
             body_force = image.force
             image = with_wedge(image, wedge, points, rest.wedge_force_z, press_bed)
             wedge_force = image.force - body_force
-    except PressFailed:
-        return "press_failed"
+    except PressFailed as exc:
+        return Rejected("press_failed", str(exc))
     finally:
         clock["press"] = time.process_time() - t3
     pose, transl = apply_rigid_motion(body, rest.betas, pose, transl, image.transform)

@@ -5,6 +5,9 @@ into a dynamic bed model as deep as the press model (or a measurement) says they
 * :func:`press_objects`: taxel forces and sink depths of objects on the press model of a bed.
 * :func:`fit_settle_stiffness`: the stiffness of any other bed model at which its objects sink as
   measured, given a function that simulates the sinks.
+
+The settle's cells are fitted with these (and the fit kept on disk) in
+:mod:`pressurepose.sim.settle_stiffness`.
 """
 
 from __future__ import annotations

@@ -23,8 +23,8 @@ covers the whole width of the back: 0.7, which makes the midline over the spinou
 thick), 4-5 cm of buttock over the pelvis (0.6; the sacrum, again too thick), 1.5-2 cm of heel
 pad (feet 0.6), 5-6 cm of muscle under a thigh
 (femur near the axis: 0.25), 3-4 cm under a calf (0.35), 2-3 cm under the upper arm (0.45) and
-1-2 cm at the forearm and hand (0.55, 0.6). They are constants to calibrate, not measurements of
-this mesh (``pressurepose calibrate --targets real --fit bone_pelvis,...``; docs/calibration.md).
+1-2 cm at the forearm and hand (0.55, 0.6). They are anatomy's depths put on this mesh, not
+measurements of it; a bed file may set other fractions (``BedSpec.tissue_bone_fraction``).
 """
 
 from __future__ import annotations
@@ -109,18 +109,18 @@ class BoneCores:
         return Bones(self.ends, frac * self.mean_radius * self.scale)
 
 
-def bone_cores(body, betas, pose, transl, offsets=None) -> BoneCores:
-    """The :class:`BoneCores` of a posed body (betas (S,), pose (72,), transl (3,), offsets None or
-    (24, 3), as ``BodyModel.forward``)."""
+def bone_cores(body, betas, pose, transl) -> BoneCores:
+    """The :class:`BoneCores` of a posed body (betas (S,), pose (72,), transl (3,) as
+    ``BodyModel.forward``)."""
     betas = np.asarray(betas, dtype=np.float64)
     caps = capsules_for(body, betas)
     ends, _ = posed_capsules(body, caps, betas, np.asarray(pose, dtype=np.float64)[None],
-                             np.asarray(transl, dtype=np.float64)[None], offsets)
+                             np.asarray(transl, dtype=np.float64)[None])
     mean_r, mean_h = _mean_radii(body)
     return BoneCores(ends[0], mean_r, float(body.height(betas)[0]) / mean_h)
 
 
-def body_bones(body, betas, pose, transl, fraction=TISSUE_BONE_FRACTION, offsets=None) -> Bones:
-    """The bones of a posed body (betas (S,), pose (72,), transl (3,), offsets None or (24, 3), as
-    ``BodyModel.forward``) with the bone fractions ``fraction`` (a bed's ``tissue_bone_fraction``)."""
-    return bone_cores(body, betas, pose, transl, offsets).bones(fraction)
+def body_bones(body, betas, pose, transl, fraction=TISSUE_BONE_FRACTION) -> Bones:
+    """The bones of a posed body (betas (S,), pose (72,), transl (3,) as ``BodyModel.forward``) with
+    the bone fractions ``fraction`` (a bed's ``tissue_bone_fraction``)."""
+    return bone_cores(body, betas, pose, transl).bones(fraction)

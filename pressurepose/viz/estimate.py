@@ -7,10 +7,15 @@ from pathlib import Path
 from pressurepose.files import save_figure_atomic
 from pressurepose.net.infer import Estimate
 
+CAPTION = ("Q is how far the estimated body's lower surface lies below the mattress top at each taxel. Where the "
+           "image reads pressure and Q reads 0, the estimate has no part of the body sunk there: a limb or head "
+           "placed a few cm off, or held above the mattress (docs/real-mats.md).")
+
 
 def estimate_figure(est: Estimate, i: int = 0):
-    """A matplotlib figure: the pressure image, the reconstructed map Q and the body seen from below
-    through the mat (laid out like the images: row 0 / the head end at the top)."""
+    """A matplotlib figure: the pressure image, the reconstructed map Q (the estimated body's sink,
+    :func:`pressurepose.net.pmr.surface_maps`) and the body seen from below through the mat (laid
+    out like the images: row 0 / the head end at the top), with :data:`CAPTION` under them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -19,9 +24,9 @@ def estimate_figure(est: Estimate, i: int = 0):
 
     from pressurepose.viz.mesh import draw_mesh
 
-    fig, axes = plt.subplots(1, 3, figsize=(12, 6))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 6.4))
     for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
-                                 (axes[1], est.q[i], "reconstructed map Q (PMR)", "mm sink")):
+                                 (axes[1], est.q[i], "reconstructed map Q\n(the estimated body's sink)", "mm of sink")):
         im = ax.imshow(img, cmap="magma", interpolation="nearest")
         ax.set_title(title)
         fig.colorbar(im, ax=ax, fraction=0.046, label=unit)
@@ -37,7 +42,8 @@ def estimate_figure(est: Estimate, i: int = 0):
     ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
     ax.set_xlabel("x across the bed (m)")
     ax.set_ylabel("-y along the bed (m)")
-    fig.tight_layout()
+    fig.text(0.01, 0.01, CAPTION, fontsize=8, va="bottom", wrap=True)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig
 
 

@@ -57,6 +57,19 @@ def draw_mesh(ax, verts: np.ndarray, faces: np.ndarray, view: str = "front", col
     ax.autoscale_view()
 
 
+def below_extent(vertices: np.ndarray, size_m: tuple[float, float], margin_m: float = 0.05) -> tuple[float, ...]:
+    """(x0, x1, y0, y1) of a view from below (``view="below"``) that holds the mat (``size_m`` =
+    (width, length), metres, its corner at the bed frame's origin) and every body of vertices
+    (..., V, 3), with ``margin_m`` around: x across the bed, the plot's y = -y of the bed (the head
+    end at the top). One extent for several panels draws every body at one scale."""
+    w, length = size_m
+    x0 = min(0.0, float(vertices[..., 0].min())) - margin_m
+    x1 = max(w, float(vertices[..., 0].max())) + margin_m
+    y0 = min(-length, float(-vertices[..., 1].max())) - margin_m
+    y1 = max(0.0, float(-vertices[..., 1].min())) + margin_m
+    return x0, x1, y0, y1
+
+
 def draw_capsules(ax, endpoints: np.ndarray, radius: np.ndarray, view: str = "front", color="tab:red",
                   lw: float = 0.8) -> None:
     """Outline capsules (endpoints (C, 2, 3), radius (C,), metres) projected in the given view."""

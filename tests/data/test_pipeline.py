@@ -17,9 +17,10 @@ from pressurepose.data.pipeline import (
     make_sample,
     plan_units,
 )
-from pressurepose.data.producers import Rejected, attempt_rng
+from pressurepose.data.producers import attempt_rng
 from pressurepose.data.store import MANIFEST, Manifest, read_shard_arrays, shard_name
 from pressurepose.data.synthetic import synthetic_producer
+from pressurepose.sim.simulate import Rejected
 from tests.data.helpers import small_config
 
 REPO = Path(__file__).resolve().parents[2]

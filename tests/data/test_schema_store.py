@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pressurepose.data.generate import generate
-from pressurepose.data.schema import GenerationConfig, Sample
+from pressurepose.data.schema import PAPER_SAMPLING, GenerationConfig, Sample
 from pressurepose.data.store import MANIFEST, Manifest, sha256_file, shard_name
 from pressurepose.errors import BadInput
 from pressurepose.files import write_bytes_atomic
@@ -191,23 +191,20 @@ def test_corrupt_manifest_is_reported(tmp_path):
         generate(small_config(count=6, shard_size=6), out, progress=False)
 
 
-def test_sampler_settings_are_in_the_config_and_a_legacy_manifest_reads_as_the_papers():
+def test_sampler_settings_are_in_the_config_and_a_record_without_them_is_refused():
     new = GenerationConfig(partition="general", gender="f")
     assert (new.shapes, new.placement, new.hanging_limbs, new.randomize) == ("normal", "centred", False, False)
-    legacy = {k: v for k, v in new.to_dict().items()
-              if k not in ("shapes", "placement", "hanging_limbs", "randomize", "across_sd_m", "across_sd_lateral_m")}
-    old = GenerationConfig.from_dict(legacy)
-    assert (old.shapes, old.placement, old.hanging_limbs, old.randomize) == ("uniform", "uniform", True, False)
-    # a 'centred' manifest from before the spread was a setting was made with 0.03 m
-    centred = GenerationConfig.from_dict({**legacy, "placement": "centred"})
-    assert (centred.across_sd_m, centred.across_sd_lateral_m) == (0.03, 0.03)
     assert (new.across_sd_m, new.across_sd_lateral_m) == (0.03, 0.08)
+    partial = {k: v for k, v in new.to_dict().items() if k not in ("shapes", "placement")}
+    with pytest.raises(BadInput, match="lacks placement, shapes"):
+        GenerationConfig.from_dict(partial)
     # the spread does not touch the paper's uniform placement, nor its seed stream
+    old = GenerationConfig(partition="general", gender="f", **PAPER_SAMPLING)
     paper = dict(shapes="uniform", placement="uniform", hanging_limbs=True)
     assert (GenerationConfig(partition="general", gender="f", **paper).stream_key
             == GenerationConfig(partition="general", gender="f", across_sd_lateral_m=0.03, **paper).stream_key
             == old.stream_key)
-    # the legacy config keeps the seed key it always had; every other setting gets its own stream
+    # the paper's sampler keeps the seed key it always had; every other setting gets its own stream
     assert old.stream_key == int.from_bytes(__import__("hashlib").sha256(b"general|f|0").digest()[:4], "little")
     keys = {old.stream_key, new.stream_key,
             GenerationConfig(partition="general", gender="f", randomize=True).stream_key,

@@ -24,7 +24,7 @@ def data_dir(tmp_path_factory):
 def test_ablation_trains_and_evaluates_by_partition_and_gender(tmp_path, data_dir, flag):
     run = tmp_path / "run"
     assert main(["train", "--data", str(data_dir), "--out", str(run), "--epochs-mod1", "1", "--epochs-mod2", "1",
-                 "--batch-size", "4", "--female", "toy", "--male", "toy", "--cnn", "quarter", flag]) == 0
+                 "--batch-size", "4", "--female", "toy", "--male", "toy", "--cnn", "half", flag]) == 0
     net, meta = load_model(run)
     channels = {"--no-pmr": (3, 3), "--no-noise": (3, 5), "--no-edges-contact": (1, 3)}[flag]
     assert (net.mod1.cnn.convs[0].in_channels, net.mod2.cnn.convs[0].in_channels) == channels

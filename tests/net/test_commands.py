@@ -29,14 +29,3 @@ def test_train_then_infer_verbs(tmp_path, capsys):
                  str(tmp_path / "est")]) == 0
     assert (tmp_path / "est" / "mesh_001.ply").exists()
     assert "model:" in capsys.readouterr().out
-
-
-def test_train_cut_feet_reaches_the_noise_model_and_is_checked(tmp_path, capsys):
-    write_toy_dataset(tmp_path / "data", n=4)
-    base = ["train", "--data", str(tmp_path / "data"), "--epochs-mod1", "1", "--epochs-mod2", "0", "--batch-size", "4",
-            "--female", "toy", "--male", "toy"]
-    assert main([*base, "--out", str(tmp_path / "run"), "--cut-feet", "0.3"]) == 0
-    meta = json.loads((tmp_path / "run" / "model.json").read_text())
-    assert meta["train"]["noise_config"]["cut_feet_p"] == 0.3
-    assert main([*base, "--out", str(tmp_path / "bad"), "--cut-feet", "1.5"]) == 2
-    assert "--cut-feet is 1.5" in capsys.readouterr().err

@@ -53,7 +53,7 @@ def test_estimate_splits_each_image_over_the_body_sites_under_its_body(model_pat
     np.testing.assert_allclose(est.sites.share, again.share)
     np.testing.assert_allclose(est.sites.peak_mmhg.max(1), p.reshape(3, -1).max(1))
     assert est.vertex_pressure.shape == (3, 192) and est.vertex_pressure.max() <= p.max()
-    assert estimate(data["pressure"], "f", model=model_path, sites=False).sites is None
+    assert dataclasses.replace(est, vertex_site=None).sites is None
     est.save(tmp_path)
     rec = json.loads((tmp_path / "sites.json").read_text())
     assert rec["sites"] == list(SITES) and len(rec["images"]) == 3
@@ -203,3 +203,14 @@ def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_
         assert main(["infer", str(tmp_path / "rec.npy"), "--gender", "m", "--model", str(model_path),
                      "--out", str(tmp_path / "bad"), *extra]) == 2
         assert said in capsys.readouterr().err
+
+
+def test_the_estimates_maps_read_the_bodys_lower_surface(model_path):
+    from pressurepose.net.pmr import SURFACE_CELL_M, lower_surface_map
+
+    est = estimate(toy_dataset(3, grid=GRID)["pressure"], "f", model=model_path)
+    low, _ = lower_surface_map(torch.tensor(est.vertices), torch.tensor(est.faces), est.grid, SURFACE_CELL_M, 1.0)
+    low = low.numpy()
+    assert (low < 0).any() and (low > 0).any()
+    np.testing.assert_array_equal(est.contact, low < 0)  # no taxel under the sunk surface is left out
+    np.testing.assert_allclose(est.q, 1000 * np.maximum(-low, 0), atol=1e-3)

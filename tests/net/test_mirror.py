@@ -13,9 +13,8 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.cli import main
-from pressurepose.errors import BadInput
 from pressurepose.mat import custom_mat
-from pressurepose.net.checkpoint import gendered_body, load_model, save_model
+from pressurepose.net.checkpoint import gendered_body, save_model
 from pressurepose.net.infer import estimate
 from pressurepose.net.mirror import (
     midpoint_rotation,
@@ -24,12 +23,10 @@ from pressurepose.net.mirror import (
     mirror_joints,
     mirror_points,
     mirror_pose,
-    mirror_some,
 )
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
 from pressurepose.net.rotations import axis_angle_to_quat, quat_to_axis_angle
-from pressurepose.net.train import TrainConfig, train
 from pressurepose.pose.posture import roll_angle
 from tests.net.synth import toy_body, toy_dataset
 
@@ -148,43 +145,3 @@ def test_estimate_and_the_cli_take_mirror(net, tmp_path):
     np.testing.assert_allclose(got, mirrored.joints, atol=1e-5)
     assert mirrored.mirror and not plain.mirror
     assert json.loads((tmp_path / "e" / "estimate.json").read_text())["mirror_averaged"] is True
-
-
-def test_mirror_some_mirrors_only_the_chosen_samples():
-    g = torch.Generator().manual_seed(4)
-    images, maps = torch.rand(3, 4, 5, generator=g), torch.rand(3, 4, 5, generator=g)
-    joints = torch.rand(3, 24, 3, generator=g)
-    flip = torch.tensor([True, False, True])
-    im, j, m, none = mirror_some(flip, 0.5, images, joints, maps, None)
-    assert none is None
-    for i in range(3):
-        want_im = images[i].flip(-1) if flip[i] else images[i]
-        want_j = mirror_joints(joints[i:i + 1], 0.5)[0] if flip[i] else joints[i]
-        assert torch.equal(im[i], want_im) and torch.equal(m[i], maps[i].flip(-1) if flip[i] else maps[i])
-        assert torch.equal(j[i], want_j)
-
-
-def test_training_with_every_sample_mirrored_is_training_on_the_mirrored_data(tmp_path):
-    """mirror_p = 1 trains Mod1 exactly as mirror_p = 0 on the same set with its images reversed and
-    its joints mirrored (the L1 loss reads joints and betas only; noise and dropout as drawn)."""
-    data = toy_dataset(6, seed=9, grid=GRID)
-    body = toy_body()
-    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=0, batch_size=3, lr=1e-3, dropout=0.1)
-    a = train(data, tmp_path / "a", dataclasses.replace(cfg, mirror_p=1.0), bodies=(body, body), grid=GRID)
-    flipped = dict(data, pressure=data["pressure"].flip(-1), joints=mirror_joints(data["joints"], GRID.size_m[0]))
-    b = train(flipped, tmp_path / "b", cfg, bodies=(body, body), grid=GRID)
-    assert [r["train_loss"] for r in a.history] == [r["train_loss"] for r in b.history]
-    c = train(data, tmp_path / "c", cfg, bodies=(body, body), grid=GRID)
-    assert [r["train_loss"] for r in a.history] != [r["train_loss"] for r in c.history]
-
-
-def test_half_mirrored_training_runs_both_modules_deterministically(tmp_path):
-    data = toy_dataset(6, seed=10, grid=GRID)
-    body = toy_body()
-    cfg = TrainConfig(epochs_mod1=1, epochs_mod2=1, batch_size=3, lr=1e-3, mirror_p=0.5)
-    a, b = (train(data, tmp_path / k, cfg, bodies=(body, body), grid=GRID) for k in "ab")
-    assert [r["train_loss"] for r in a.history] == [r["train_loss"] for r in b.history]
-    assert load_model(a.model_path)[1]["train"]["mirror_p"] == 0.5
-    with pytest.raises(BadInput, match="mirror_p"):
-        TrainConfig(mirror_p=1.5)
-    assert main(["train", "--data", str(tmp_path / "none"), "--out", str(tmp_path / "r"), "--mirror-p", "2"]) == 2

@@ -46,25 +46,3 @@ def test_noise_config_zero_is_identity_and_clip_applies():
     assert torch.equal(noisy, x) and torch.all(sigma == 0.5)
     loud = NoiseConfig(mult_std=0, add_std=0, clip_max=30.0)
     assert add_noise(x, torch.Generator().manual_seed(0), loud)[0].max() == 30.0
-
-
-def test_a_mat_shorter_than_the_body_cuts_images_at_the_foot_end():
-    x = _clean(400)  # contact on rows 2..13
-    paper = add_noise(x, torch.Generator().manual_seed(5))
-    cut_cfg = NoiseConfig(cut_feet_p=0.5, cut_feet_rows=4)
-    noisy, mask, sigma = add_noise(x, torch.Generator().manual_seed(5), cut_cfg)
-    # the paper's noise is drawn first and unchanged; only whole rows at the foot end are dropped
-    assert torch.equal(sigma, paper[2])
-    kept = mask.amax(dim=2) > 0  # (B, R)
-    last = torch.where(kept, torch.arange(16), torch.full((16,), -1)).amax(dim=1)
-    cut = 13 - last  # rows lost per image
-    assert set(cut.tolist()) == {0, 1, 2, 3, 4}
-    assert abs(float((cut > 0).float().mean()) - 0.5) < 0.08
-    for k in range(1, 5):  # 1..4 rows, evenly
-        assert abs(float((cut == k).float().mean()) - 0.125) < 0.05
-    rows_kept = kept[:, 2:14].sum(1)
-    assert torch.equal(rows_kept, 12 - cut)  # contiguous from the head end: nothing else lost
-    assert torch.equal(noisy * mask, noisy) and torch.equal(noisy[mask.bool()], paper[0][mask.bool()])
-    # an image without contact is left alone
-    empty = add_noise(torch.zeros(3, 16, 8), torch.Generator().manual_seed(0), NoiseConfig(cut_feet_p=1.0))
-    assert torch.all(empty[0] == 0)

@@ -4,7 +4,15 @@ import numpy as np
 import torch
 
 from pressurepose.mat import MatSpec, custom_mat
-from pressurepose.net.pmr import PMRConfig, maps_from_depth, pmr, sink_depth
+from pressurepose.net.pmr import (
+    PMRConfig,
+    lower_surface_map,
+    maps_from_depth,
+    pmr,
+    sink_depth,
+    surface_maps,
+)
+from pressurepose.sim.raster import lower_surface
 
 torch.set_num_threads(1)
 
@@ -94,3 +102,53 @@ def test_gradients_by_finite_differences():
     d = f(verts)[0]
     g, = torch.autograd.grad(d[0, :4, :3].sum(), verts)
     assert torch.all(g[0, :12, 2] == 1) and torch.all(g[0, 12:] == 0) and torch.all(g[0, :, :2] == 0)
+
+
+def _square(z: float, x0: float, x1: float, y0: float, y1: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """A flat square (two triangles, vertices only at its corners) at height z, facing down."""
+    verts = torch.tensor([[[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]]], dtype=torch.float64)
+    return verts, torch.tensor([[0, 2, 1], [0, 3, 2]])
+
+
+def test_a_sunk_surface_between_far_apart_vertices_reads_contact_under_all_of_it():
+    # a 20 x 20 cm square sunk 1 cm, on 1 cm taxels: its vertices lie 20 taxels apart
+    grid = custom_mat(rows=30, cols=30, pitch_row_m=0.01, pitch_col_m=0.01)
+    verts, faces = _square(-0.01, 0.05, 0.25, 0.05, 0.25)
+    m = surface_maps(verts, faces, grid, cell_m=0.01)
+    under = np.zeros((30, 30), bool)
+    under[5:25, 5:25] = True  # the taxels whose centres the square covers
+    np.testing.assert_array_equal(m.contact[0].numpy(), under)
+    np.testing.assert_allclose(m.q[0].numpy()[under], 10.0)
+    assert np.all(m.depth[0].numpy()[~under] == PMRConfig().empty_depth_m)
+    # the lowest vertex per taxel sees the four corners only: the filling reaches 2 taxels from them
+    assert pmr(verts, grid).contact[0].numpy()[under].mean() < 0.2
+
+
+def test_lower_surface_map_is_the_simulators_lower_surface_reduced_per_taxel():
+    # a random closed mesh (a squashed icosphere, tilted) over a grid of 3 x 3 cells per taxel
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    rng = np.random.default_rng(3)
+    verts = sphere.vertices * [0.09, 0.12, 0.04] + rng.normal(0, 0.004, sphere.vertices.shape)
+    tilt = trimesh.transformations.rotation_matrix(0.3, [1, 1, 0])[:3, :3]
+    verts = verts @ tilt.T + [0.1, 0.14, 0.01]
+    faces = np.asarray(sphere.faces)
+    cell = GRID.pitch_col_m / 3
+    grid = custom_mat(rows=12, cols=10, pitch_row_m=3 * cell, pitch_col_m=3 * cell)
+    low, filled = lower_surface_map(torch.tensor(verts)[None], torch.tensor(faces), grid, cell, 1.0)
+    fine = lower_surface(verts, faces, (0.0, 0.0), (cell, cell), (36, 30))
+    want = fine.reshape(12, 3, 10, 3).min(axis=(1, 3))
+    np.testing.assert_array_equal(filled[0].numpy(), np.isfinite(want))
+    np.testing.assert_allclose(low[0].numpy(), np.where(np.isfinite(want), want, 1.0), atol=1e-12)
+    assert filled.sum() > 40 and (low < 0).any() and (low[filled] > 0).any()
+
+
+def test_surface_depth_gradient_by_finite_differences():
+    # a tilted square over 4 x 4 taxels: the depth at each taxel interpolates its corners' heights
+    grid = custom_mat(rows=6, cols=6, pitch_row_m=0.02, pitch_col_m=0.02)
+    verts, faces = _square(-0.01, 0.011, 0.093, 0.013, 0.097)
+    verts = verts + torch.tensor([[[0, 0, 0.0], [0, 0, 0.004], [0, 0, -0.003], [0, 0, 0.002]]], dtype=torch.float64)
+    verts.requires_grad_(True)
+    assert torch.autograd.gradcheck(lambda v: surface_maps(v, faces, grid, cell_m=0.02).depth, (verts,),
+                                    eps=1e-7, atol=1e-6)

@@ -77,11 +77,11 @@ def test_weight_zero_is_the_papers_loss_and_a_weight_adds_the_term():
 def test_training_with_the_turn_term_runs_and_checks_its_weight(tmp_path):
     data = toy_dataset(4, seed=5, grid=GRID)
     body = toy_body()
-    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=1, batch_size=2, lr=1e-3, cnn="quarter", turn_loss=2.0)
+    cfg = TrainConfig(epochs_mod1=2, epochs_mod2=1, batch_size=2, lr=1e-3, cnn="half", turn_loss=2.0)
     result = train(data, tmp_path, cfg, bodies=(body, body), grid=GRID)
     assert len(result.history) == 3 and all(np.isfinite(r["train_loss"]) for r in result.history)
     plain = train(data, tmp_path / "plain", TrainConfig(epochs_mod1=2, epochs_mod2=1, batch_size=2, lr=1e-3,
-                                                        cnn="quarter"), bodies=(body, body), grid=GRID)
+                                                        cnn="half"), bodies=(body, body), grid=GRID)
     assert result.history[0]["train_loss"] > plain.history[0]["train_loss"]  # the same step plus the term
     with pytest.raises(BadInput, match="turn_loss"):
         TrainConfig(turn_loss=-1.0)

@@ -133,7 +133,7 @@ def test_record_round_trip_and_bad_records():
 
 def test_bone_fractions_by_part():
     """A dict names some parts (the rest keep their defaults); records keep them by name; a record
-    written before the field existed reads back with the defaults."""
+    without them is refused, as a record without any other field."""
     from pressurepose.sim.bed import BONE_PARTS, TISSUE_BONE_FRACTION
 
     bed = get_bed(tissue_bone_fraction={"pelvis": 0.8, "calf": 0.2})
@@ -143,7 +143,8 @@ def test_bone_fractions_by_part():
     assert d["tissue_bone_fraction"]["pelvis"] == 0.8
     assert BedSpec.from_dict(d) == bed
     del d["tissue_bone_fraction"]
-    assert BedSpec.from_dict(d).tissue_bone_fraction == TISSUE_BONE_FRACTION
+    with pytest.raises(BadInput, match="bed record lacks tissue_bone_fraction"):
+        BedSpec.from_dict(d)
     for bad, match in [({"femur": 0.5}, "unknown parts"), ({"pelvis": 0.0}, r"\(0, 1\]"), ((0.5,) * 3, "11"),
                        ({"pelvis": float("nan")}, "pelvis"), (5, "expected 11")]:
         with pytest.raises(BadInput, match=match):

@@ -12,8 +12,10 @@ from pressurepose.body.joints import joint_index
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
 from pressurepose.sim import ragdoll as rd
+from pressurepose.sim import springs
 from pressurepose.sim.bed import get_bed
-from pressurepose.sim.settle import SettleConfig, SettleModel, build_spec
+from pressurepose.sim.settle_config import SettleConfig
+from pressurepose.sim.settle_model import SettleModel, build_spec
 
 BETAS = np.array([0.5, -1.0, 0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0])
 
@@ -196,19 +198,19 @@ def test_stiffness_scales_with_mass_and_damping_is_15x(body, params):
     neck = np.isin(CAPSULE_NAMES, ["neck", "head"])
     np.testing.assert_allclose(params.damping[~neck], 15.0 * params.stiffness[~neck])
     # the relaxed neck (default): soft, lightly damped neck and head joints
-    relaxed = params.stiffness[neck] * rd.MEAN_MASS_KG["female"] / params.total_mass
-    np.testing.assert_allclose(relaxed, rd.RELAXED_NECK_STIFFNESS)
-    np.testing.assert_allclose(params.damping[neck], rd.RELAXED_NECK_DAMPING_S * params.stiffness[neck])
+    relaxed = params.stiffness[neck] * springs.MEAN_MASS_KG["female"] / params.total_mass
+    np.testing.assert_allclose(relaxed, springs.RELAXED_NECK_STIFFNESS)
+    np.testing.assert_allclose(params.damping[neck], springs.RELAXED_NECK_DAMPING_S * params.stiffness[neck])
     # the relaxed spine (default): spine1-3 as soft as the limbs' joints, damped as the paper's
     spine = np.isin(CAPSULE_NAMES, ["spine", "spine1", "spine2"])  # capsules on the spine1-3 joints
-    relaxed = params.stiffness[spine] * rd.MEAN_MASS_KG["female"] / params.total_mass
-    np.testing.assert_allclose(relaxed, rd.RELAXED_SPINE_STIFFNESS)
+    relaxed = params.stiffness[spine] * springs.MEAN_MASS_KG["female"] / params.total_mass
+    np.testing.assert_allclose(relaxed, springs.RELAXED_SPINE_STIFFNESS)
     firm = rd.ragdoll_params(body, BETAS, "female", spine_stiffness=50.0)
-    np.testing.assert_allclose(firm.stiffness[spine] / params.stiffness[spine], 50.0 / rd.RELAXED_SPINE_STIFFNESS)
+    np.testing.assert_allclose(firm.stiffness[spine] / params.stiffness[spine], 50.0 / springs.RELAXED_SPINE_STIFFNESS)
     np.testing.assert_array_equal(firm.stiffness[~spine], params.stiffness[~spine])
     params = rd.ragdoll_params(body, BETAS, "female", relaxed_neck=False, spine_stiffness=None)  # the paper's
     np.testing.assert_allclose(params.damping, 15.0 * params.stiffness)
-    k = dict(zip(CAPSULE_NAMES, params.stiffness * rd.MEAN_MASS_KG["female"] / params.total_mass))
+    k = dict(zip(CAPSULE_NAMES, params.stiffness * springs.MEAN_MASS_KG["female"] / params.total_mass))
     assert k["pelvis"] == 0.0
     assert (k["left_thigh"], k["left_calf"], k["left_foot"], k["spine1"], k["head"]) == pytest.approx(
         (6.0, 3.0, 6.0, 200.0, 200.0))
@@ -253,7 +255,7 @@ def test_reused_model_equals_a_fresh_compile(body, params):
     """Rewriting a compiled model for another body gives the model a fresh compile would."""
     bed = get_bed()
     config = SettleConfig(cell_m=0.2)
-    sm = SettleModel(bed, config, params)
+    sm = SettleModel(bed, config, params, bed.stiffness_n_m3)
     other = rd.ragdoll_params(body, np.array([2.0, -1.5, 1.0, 0, 0, 0, 0, 0, 0, 0.5]), "male")
     pose = rd.home_pose()
     pose[:3] = [0.3, -2.0, 0.2]

@@ -18,11 +18,11 @@ from pressurepose.pose.root import root_axis_angle, world_rotation
 from pressurepose.sim.bed import get_bed
 from pressurepose.sim.cellbed import cell_bed, rigid_sink
 from pressurepose.sim.ragdoll import home_pose, ragdoll_params
-from pressurepose.sim.settle import (
+from pressurepose.sim.settle import settle
+from pressurepose.sim.settle_config import SettleConfig
+from pressurepose.sim.settle_stiffness import (
     BODY_PART_CAPSULES,
-    SettleConfig,
     calibrate_stiffness,
-    settle,
     settle_sink_fn,
 )
 from pressurepose.sim.stiffness import fit_settle_stiffness
@@ -312,7 +312,7 @@ def test_posture_classes_from_the_root():
 # ------------------------------------------------------------------------------ the stiffness cache
 
 def test_settle_stiffness_is_fitted_once_then_read_from_the_cache(tmp_path, monkeypatch):
-    import pressurepose.sim.settle as settle_module
+    import pressurepose.sim.settle_stiffness as settle_module
 
     calls = []
 
@@ -339,7 +339,7 @@ def test_settle_stiffness_is_fitted_once_then_read_from_the_cache(tmp_path, monk
 
 
 def test_cached_stiffness_is_the_fit():
-    from pressurepose.sim.settle import settle_stiffness
+    from pressurepose.sim.settle_stiffness import settle_stiffness
 
     assert settle_stiffness(BED, FAST) == calibrate_stiffness(BED, FAST).stiffness
 
@@ -412,12 +412,14 @@ def test_settle_presets():
     import argparse
 
     from pressurepose.cli.sim import add_settle_argument
-    from pressurepose.sim.settle import SETTLES, settle_preset
+    from pressurepose.sim.presets import SETTLES
+    from pressurepose.sim.settle_config import settle_preset
 
     assert settle_preset("relaxed") == SettleConfig()
     paper = settle_preset("paper")
-    assert paper.spine_stiffness is None and paper.relaxed_neck is False and paper.limb_damping_s is None
-    assert settle_preset("relaxed-limbs") == SettleConfig(limb_damping_s=3.0)
+    assert paper.spine_stiffness is None and paper.relaxed_neck is False
+    assert paper == SettleConfig(relaxed_neck=False, spine_stiffness=None)
+    assert SETTLES == ("relaxed", "paper")
     with pytest.raises(BadInput, match="settle 'floppy' is not known"):
         settle_preset("floppy")
     p = argparse.ArgumentParser()
@@ -465,115 +467,3 @@ def test_the_step_budget_is_kept_in_seconds_with_a_coarse_step(body, supine):
     fine_steps = res.touch_step + budget.coarse_after_steps
     expected = fine_steps + (budget.max_steps - fine_steps) / 2  # the rest of 1.5 s at 0.02 s
     assert abs(res.steps - expected) <= 1
-
-
-@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
-def test_a_lateral_neck_flexion_flexes_side_lying_heads_only():
-    """``lateral_neck_flexion_deg`` rests the neck's and head's springs flexed forward for a body drawn
-    on its side: its settled neck and head flex by a good part of it (the head lies on the bed, so
-    not all of it), and a supine body's settle is the default's to the bit."""
-    from pressurepose.pose.sampler import body_rng, sample_one
-
-    body = BodyModel("female")
-    neck = [3 * JOINT_NAMES.index(n) for n in ("neck", "head")]  # SMPL x: + flexes forward
-    flex = dataclasses.replace(FAST, lateral_neck_flexion_deg=40.0)
-    side = sample_one("general_lateral", "f", body_rng(2, 0), body=body)  # settles either way
-    assert posture_class(side.pose) in ("left_lateral", "right_lateral")
-    flexion = {}
-    for name, cfg in (("default", FAST), ("flexed", flex)):
-        res = settle(body, side.betas, side.pose, side.transl, "female", BED, cfg)
-        assert res.ok
-        flexion[name] = np.degrees(res.pose[neck].sum())
-    assert flexion["flexed"] > flexion["default"] + 25.0
-    up = sample_one("general_supine", "f", body_rng(5, 0), body=body)
-    a = settle(body, up.betas, up.pose, up.transl, "female", BED, FAST)
-    b = settle(body, up.betas, up.pose, up.transl, "female", BED, flex)
-    np.testing.assert_array_equal(a.pose, b.pose)
-
-
-def test_flexed_neck_home_moves_only_the_neck_and_head():
-    from pressurepose.body.capsules import CAPSULE_JOINTS
-    from pressurepose.sim.ragdoll import flexed_neck_home
-
-    home = home_pose().reshape(24, 3)[list(CAPSULE_JOINTS)]
-    out = flexed_neck_home(home, 0.6)
-    moved = np.flatnonzero(np.any(out != home, axis=1))
-    assert [CAPSULE_JOINTS[k] for k in moved] == [JOINT_NAMES.index("neck"), JOINT_NAMES.index("head")]
-    np.testing.assert_allclose(out[moved, 0] - home[moved, 0], 0.3)
-    with pytest.raises(BadInput, match="home has shape"):
-        flexed_neck_home(home[:5], 0.6)
-
-
-@pytest.mark.parametrize("bad", [-1.0, 91.0, float("nan"), True])
-def test_settle_config_rejects_a_bad_neck_flexion(bad):
-    with pytest.raises(BadInput, match="lateral_neck_flexion_deg"):
-        SettleConfig(lateral_neck_flexion_deg=bad)
-
-
-# ------------------------------------------------------------------------------ relaxed limbs
-
-def test_limb_damping_sets_the_limb_joints_only(body):
-    from pressurepose.body.capsules import CAPSULE_JOINTS
-    from pressurepose.sim.ragdoll import LIMB_JOINTS
-
-    paper = ragdoll_params(body, BETAS, "female")
-    relaxed = ragdoll_params(body, BETAS, "female", limb_damping_s=3.0)
-    limb = np.isin(CAPSULE_JOINTS, LIMB_JOINTS)
-    assert limb.sum() == 14  # thighs, calves, feet, collars, upper arms, forearms, hands
-    np.testing.assert_allclose(relaxed.damping[limb], 3.0 * relaxed.stiffness[limb])
-    np.testing.assert_allclose(paper.damping[limb], 15.0 * paper.stiffness[limb])
-    np.testing.assert_array_equal(relaxed.damping[~limb], paper.damping[~limb])
-    np.testing.assert_array_equal(relaxed.stiffness, paper.stiffness)
-
-
-@pytest.mark.parametrize("bad", [0.0, -3.0, float("nan"), True])
-def test_settle_config_rejects_a_bad_limb_damping(bad):
-    with pytest.raises(BadInput, match="limb_damping_s"):
-        SettleConfig(limb_damping_s=bad)
-    with pytest.raises(BadInput, match="limb_damping_s"):
-        ragdoll_params(BodyModel(toy_body_arrays()), BETAS, "female", limb_damping_s=bad)
-
-
-@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
-def test_raised_arms_come_to_rest_on_the_bed_with_relaxed_limbs():
-    """A relaxed arm held up by nothing but its shoulder falls onto the bed. With relaxed limbs the
-    settle rests both hands there; with the paper's damping (15 s) a falling arm moves at about the
-    resting speed, and the settle stops with the hands still in the air."""
-    from pressurepose.pose.sampler import body_rng, sample_one
-
-    body = BodyModel("female")
-    drawn = sample_one("general_supine", "f", body_rng(13, 0), body=body)
-    caps = capsules_for(body, drawn.betas)
-    hands = [caps.names.index(h) for h in ("left_hand", "right_hand")]
-    low = {}
-    for damping in (3.0, None):
-        res = settle(body, drawn.betas, drawn.pose, drawn.transl, "female", BED,
-                     dataclasses.replace(FAST, limb_damping_s=damping))
-        assert res.ok
-        ends, radius = posed_capsules(body, caps, drawn.betas, res.pose[None], res.transl[None])
-        low[damping] = ends[0, hands, :, 2].min(-1) - radius[hands]  # each hand's lowest point, m above the bed
-    assert np.all(low[3.0] < 0.02)  # on (and into) the mattress, whose top is z = 0
-    assert np.all(low[None] > 0.1)
-
-
-def test_relaxed_limbs_settle_a_body_drawn_past_its_limits():
-    """hands_behind_head draws shoulders past the ragdoll's limits. The explicit limit penalty is
-    unstable at the coarse step against relaxed limbs' damping, so a joint outside its box is damped
-    as the paper's until it is back inside; afterwards the shared model holds the body's own damping."""
-    from pressurepose.body.capsules import CAPSULE_JOINTS
-    from pressurepose.pose.sampler import body_rng, sample_one
-    from pressurepose.sim.settle import _MODELS
-
-    body = BodyModel("female")
-    drawn = sample_one("hands_behind_head", "f", body_rng(5, 10), True, body=body)
-    relaxed = dataclasses.replace(FAST, limb_damping_s=3.0)
-    params = ragdoll_params(body, drawn.betas, "female", limb_damping_s=3.0)
-    shoulders = [list(CAPSULE_JOINTS).index(j) for j in (16, 17)]
-    pose = drawn.pose.reshape(24, 3)[[16, 17]]
-    assert np.any((pose < params.lower[shoulders]) | (pose > params.upper[shoulders]))  # the premise
-    res = settle(body, drawn.betas, drawn.pose, drawn.transl, "female", BED, relaxed)
-    assert res.status == "settled"
-    ri = _MODELS[(BED, relaxed, False)].ragdoll
-    model = _MODELS[(BED, relaxed, False)].model
-    for k in ri.ball:
-        assert model.dof_damping[ri.dof[k]: ri.dof[k] + 3] == pytest.approx(np.full(3, params.damping[k]))

@@ -107,3 +107,23 @@ def test_simulate_on_a_bed_file(tmp_path, capsys):
     np.testing.assert_array_equal(a["pose"][:, 3:], b["pose"][:, 3:])  # the press only moves the body rigidly
     assert (b["pressure"] > 5).sum() < (a["pressure"] > 5).sum()
     assert main(common + ["--out", str(tmp_path / "c.npz"), "--bed", str(tmp_path / "bed.json"), "--mat", "tip"]) == 2
+
+
+def test_a_rejected_attempt_is_a_value_naming_the_settles_status():
+    """A settle given one step cannot rest the body: simulate_one returns Rejected with the settle's
+    status and the steps it took, not a sample; the simulate command counts it by that cause."""
+    import pytest
+
+    from pressurepose.sim import get_bed
+    from pressurepose.sim.settle import STATUSES
+    from pressurepose.sim.settle_config import SettleConfig
+    from pressurepose.sim.simulate import Rejected, simulate_one
+
+    bed = get_bed()
+    one_step = SettleConfig(max_steps=1, stiffness_n_m3=bed.stiffness_n_m3)
+    out = simulate_one(BodyModel("f"), bed, "general_supine", "f", np.random.default_rng(0),
+                       settle_config=one_step)
+    assert isinstance(out, Rejected) and out.cause == "not_settled" and out.cause in STATUSES
+    assert out.detail.startswith("1 settle step, started supine")
+    with pytest.raises(TypeError, match="cause"):
+        Rejected("")

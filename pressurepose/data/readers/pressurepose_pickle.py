@@ -43,7 +43,7 @@ import numpy as np
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle
 from pressurepose.data.resample import MMHG_PA
 from pressurepose.data.schema import (
-    LEGACY_SAMPLING,
+    PAPER_SAMPLING,
     PARTITIONS,
     GenerationConfig,
     Sample,
@@ -266,7 +266,7 @@ def convert_synthetic(path: str | Path, out: str | Path, *, body=None, partition
     samples = synthetic_to_samples(raw, gender=gender, partition=partition, body=body)
     config = GenerationConfig(partition=partition, gender=gender, limbs_on_bed=plo, count=len(samples),
                               shard_size=shard_size, producer=f"converted:pressurepose:{Path(path).name}",
-                              **LEGACY_SAMPLING)  # the paper's sampler made the release
+                              **PAPER_SAMPLING)  # the paper's sampler made the release
     return write_dataset(out, config, samples)
 
 
