@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.body.mesh import lower_surface
+from pressurepose.body.mesh import lower_surface, mesh_volume
 from pressurepose.errors import BadInput
 from pressurepose.mat import MatSpec
 
@@ -172,25 +172,30 @@ def body_site_map(vertices, faces, vertex_site, mat: MatSpec) -> np.ndarray:
     x, y) of those vertices. ``NO_SITE`` only for a body nowhere over the mat. vertices (B, V, 3) bed
     frame, m; faces (F, 3); vertex_site (V,) from :func:`vertex_sites`, or (B, V) one per body
     (bodies of different models with one topology)."""
-    from scipy.spatial import cKDTree
-
     verts = np.asarray(vertices, dtype=np.float64)
     verts = verts[None] if verts.ndim == 2 else verts
     tris = np.asarray(faces, dtype=np.int64)
     vsite = np.broadcast_to(np.asarray(vertex_site, dtype=np.int64), verts.shape[:2])
-    R, C = mat.shape
-    out = np.full((len(verts), R * C), NO_SITE, dtype=np.int8)
-    for b in range(len(verts)):
-        nearest = _skin_vertices(verts[b], tris, mat)[1].ravel()
-        on = np.flatnonzero(nearest >= 0)
-        if not len(on):
-            continue
-        out[b, on] = vsite[b, nearest[on]]
-        missing = np.flatnonzero(nearest < 0)
-        if len(missing):
-            _, k = cKDTree(verts[b, nearest[on], :2]).query(_centres(mat)[missing])
-            out[b, missing] = vsite[b, nearest[on][k]]
-    return out.reshape(len(verts), R, C)
+    closed = _closed(tris)
+    return np.stack([_site_map(verts[b], vsite[b], _skin(verts[b], tris, mat, closed), mat)
+                     for b in range(len(verts))]).reshape(len(verts), *mat.shape)
+
+
+def _site_map(verts: np.ndarray, vsite: np.ndarray, skin, mat: MatSpec) -> np.ndarray:
+    """(R * C,) int8 site map of one body (V, 3) with sites (V,) from its :func:`_skin`."""
+    from scipy.spatial import cKDTree
+
+    nearest = skin[1]
+    out = np.full(mat.rows * mat.cols, NO_SITE, dtype=np.int8)
+    on = np.flatnonzero(nearest >= 0)
+    if not len(on):
+        return out
+    out[on] = vsite[nearest[on]]
+    missing = np.flatnonzero(nearest < 0)
+    if len(missing):
+        _, k = cKDTree(verts[nearest[on], :2]).query(_centres(mat)[missing])
+        out[missing] = vsite[nearest[on][k]]
+    return out
 
 
 def _centres(mat: MatSpec) -> np.ndarray:
@@ -199,11 +204,27 @@ def _centres(mat: MatSpec) -> np.ndarray:
                                 (np.arange(mat.rows) + 0.5) * mat.pitch_row_m), -1).reshape(-1, 2)
 
 
-def _skin_vertices(vertices: np.ndarray, faces: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
-    """The body's lower surface over the taxel centres of ``mat``: heights (R, C) m (+inf where no
-    triangle) and the vertex of the lowest triangle nearest each centre (R, C) (-1 where none)."""
-    return lower_surface(vertices, faces, (0.0, 0.0), (mat.pitch_col_m, mat.pitch_row_m), mat.shape,
-                         return_vertex=True)
+def _closed(faces: np.ndarray) -> bool:
+    """Whether triangles (F, 3) close a surface: every edge is shared by exactly two of them."""
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, count = np.unique(edges, axis=0, return_counts=True)
+    return bool(len(faces)) and bool(np.all(count == 2))
+
+
+def _skin(vertices: np.ndarray, faces: np.ndarray, mat: MatSpec, closed: bool = False,
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """One body's lower surface over the taxel centres of ``mat``, row-major: heights (R * C,) m
+    (+inf where no triangle) and the vertex of the lowest triangle nearest each centre (R * C,)
+    (-1 where none). Of a ``closed`` mesh only the triangles facing down can be lowest: the others
+    are left out (half the work)."""
+    down = faces
+    if closed:
+        e1, e2 = vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]]
+        normal_z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        down = faces[normal_z * np.sign(float(mesh_volume(vertices[None], faces)[0])) < 0]
+    heights, nearest = lower_surface(vertices, down, (0.0, 0.0), (mat.pitch_col_m, mat.pitch_row_m), mat.shape,
+                                     return_vertex=True)
+    return heights.ravel(), nearest.ravel()
 
 
 def lowest_vertices(vertices: np.ndarray, mat: MatSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -321,15 +342,34 @@ def vertex_pressure(pressure, vertices, faces, mat: MatSpec, reach_m: float = 0.
     triangle over the taxel's centre, or its lowest vertex), else 0; vertices beyond the mat read 0.
     pressure (B, R, C) mmHg; vertices (B, V, 3) bed frame, m; faces (F, 3)."""
     p, verts, tris, _ = _check_inputs(pressure, vertices, faces, np.zeros(np.shape(vertices)[-2], np.int64), mat)
-    out = np.zeros(verts.shape[:2])
-    for b in range(len(p)):
-        row = np.floor(verts[b, :, 1] / mat.pitch_row_m).astype(np.int64)
-        col = np.floor(verts[b, :, 0] / mat.pitch_col_m).astype(np.int64)
-        inside = (row >= 0) & (row < mat.rows) & (col >= 0) & (col < mat.cols)
-        flat = np.where(inside, row * mat.cols + col, 0)
-        floor = _skin_vertices(verts[b], tris, mat)[0].ravel()
-        cell, low = lowest_vertices(verts[b], mat)
-        floor[cell] = np.minimum(floor[cell], verts[b, low, 2])
-        near = inside & (verts[b, :, 2] <= floor[flat] + reach_m)
-        out[b, near] = p[b].ravel()[flat[near]]
+    closed = _closed(tris)
+    return np.stack([_vertex_pressure(p[b], verts[b], _skin(verts[b], tris, mat, closed), mat, reach_m)
+                     for b in range(len(p))])
+
+
+def _vertex_pressure(p: np.ndarray, verts: np.ndarray, skin, mat: MatSpec, reach_m: float) -> np.ndarray:
+    """(V,) mmHg on one body's surface (:func:`vertex_pressure`) from its :func:`_skin`."""
+    row = np.floor(verts[:, 1] / mat.pitch_row_m).astype(np.int64)
+    col = np.floor(verts[:, 0] / mat.pitch_col_m).astype(np.int64)
+    inside = (row >= 0) & (row < mat.rows) & (col >= 0) & (col < mat.cols)
+    flat = np.where(inside, row * mat.cols + col, 0)
+    floor = skin[0].copy()
+    cell, low = lowest_vertices(verts, mat)
+    floor[cell] = np.minimum(floor[cell], verts[low, 2])
+    near = inside & (verts[:, 2] <= floor[flat] + reach_m)
+    out = np.zeros(len(verts))
+    out[near] = p.ravel()[flat[near]]
     return out
+
+
+def body_loads(pressure, vertices, faces, vertex_site, mat: MatSpec, min_mmhg: float = 0.0,
+               reach_m: float = 0.02) -> tuple[SiteLoads, np.ndarray]:
+    """:func:`site_loads` and :func:`vertex_pressure` together, each body's lower surface found once."""
+    p, verts, tris, vsite = _check_inputs(pressure, vertices, faces, vertex_site, mat)
+    vsite = np.broadcast_to(vsite, verts.shape[:2])
+    taxel, on_skin, closed = np.empty(p.shape, np.int8), np.zeros(verts.shape[:2]), _closed(tris)
+    for b in range(len(p)):
+        skin = _skin(verts[b], tris, mat, closed)
+        taxel[b] = np.where(p[b] > min_mmhg, _site_map(verts[b], vsite[b], skin, mat).reshape(mat.shape), NO_SITE)
+        on_skin[b] = _vertex_pressure(p[b], verts[b], skin, mat, reach_m)
+    return site_stats(p, taxel, mat), on_skin

@@ -23,13 +23,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from pressurepose.body.sites import (
-    SITES,
-    SiteLoads,
-    site_loads,
-    vertex_pressure,
-    vertex_sites,
-)
+from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput
@@ -61,7 +55,7 @@ class Estimate:
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
     given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
     (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
-    read (a few ms a body): :attr:`sites`, the load on each body site under the estimated body
+    read (about 10 ms a body on one CPU core): :attr:`sites`, the load on each body site under the estimated body
     (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
     :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
     surface (:func:`~pressurepose.body.sites.vertex_pressure`).
@@ -113,8 +107,7 @@ class Estimate:
 
     def _site_loads(self) -> tuple[SiteLoads, np.ndarray] | None:
         if self._sites is None and self.vertex_site is not None:
-            self._sites = (site_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid),
-                           vertex_pressure(self.pressure, self.vertices, self.faces, self.grid))
+            self._sites = body_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid)
         return self._sites
 
     @property

@@ -10,6 +10,7 @@ from pressurepose.body.sites import (
     NO_SITE,
     OTHER,
     SITES,
+    body_loads,
     body_site_map,
     lowest_vertices,
     site_index,
@@ -227,3 +228,15 @@ def test_body_on_its_left_side_loads_its_left_shoulder_and_trochanter(gender):
     supine = dict(zip(SITES, site_loads(_sunk(supine_v, body.faces, mat, 0.1), supine_v[None], body.faces, vertex_sites(body),
                                         mat).share[0]))
     assert share["sacrum"] + share["scapulae"] < 0.5 * (supine["sacrum"] + supine["scapulae"])
+
+
+def test_body_loads_are_site_loads_and_vertex_pressure_together():
+    body = shipped("female")
+    v, mat = _lying(body, 0.0)
+    p = _sunk(v, body.faces, mat, 0.06)
+    loads, on_skin = body_loads(p, v[None], body.faces, vertex_sites(body), mat, min_mmhg=1.0)
+    alone = site_loads(p, v[None], body.faces, vertex_sites(body), mat, min_mmhg=1.0)
+    np.testing.assert_array_equal(loads.taxel_site, alone.taxel_site)
+    np.testing.assert_allclose(loads.share, alone.share)
+    np.testing.assert_allclose(on_skin, vertex_pressure(p, v[None], body.faces, mat))
+    assert on_skin.max() == pytest.approx(p.max()) and (on_skin > 0).sum() < 0.3 * body.num_vertices
