@@ -35,6 +35,22 @@ def require_finite(name: str, v) -> None:
         raise BadInput(f"{name} is {v!r}; expected a finite number")
 
 
+def require_numbers(name: str, v, n: int, positive: bool = False) -> tuple[float, ...]:
+    """``v`` as a tuple of ``n`` floats; BadInput naming ``name`` (and the index) unless it is a
+    sequence of ``n`` finite numbers (positive ones with ``positive``)."""
+    if isinstance(v, (str, bytes, dict)) or not hasattr(v, "__len__") or len(v) != n:
+        raise BadInput(f"{name} is {v!r:.80}; expected {n} numbers")
+    for i, x in enumerate(v):
+        (require_positive if positive else require_finite)(f"{name}[{i}]", x)
+    return tuple(float(x) for x in v)
+
+
+def require_whole(name: str, v, lo: int, hi: int) -> None:
+    """BadInput unless ``v`` is a whole number (an int, not a bool) from ``lo`` to ``hi``."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+        raise BadInput(f"{name} is {v!r}; expected a whole number from {lo} to {hi}")
+
+
 def require_positive(name: str, v) -> None:
     """BadInput unless ``v`` is a finite number > 0."""
     require_finite(name, v)
@@ -47,3 +63,28 @@ def require_non_negative(name: str, v) -> None:
     require_finite(name, v)
     if v < 0:
         raise BadInput(f"{name} is {v!r}; expected zero or a positive number")
+
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # about 3.4e38: larger values become infinite in float32
+
+
+def finite_float32(values, what: str) -> np.ndarray:
+    """``values`` (numbers of any shape) as float32; BadInput naming ``what`` for values that are not
+    numbers, NaN or infinite, or finite but beyond float32's range (which the cast would make
+    infinite)."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "fiub":
+        raise BadInput(f"{what} holds {arr.dtype} values; expected numbers")
+    if arr.dtype.kind == "f" and arr.size:
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            at = tuple(int(k) for k in np.unravel_index(i, arr.shape))
+            where = f" at index {at[0] if len(at) == 1 else at}" if at else ""
+            raise BadInput(f"{what} contains NaN or infinite values ({int(bad.sum())} of {arr.size}; the first: "
+                           f"{float(arr.flat[i])}{where})")
+        peak = float(np.abs(arr).max())
+        if peak > FLOAT32_MAX:
+            raise BadInput(f"{what} holds values up to {peak:.3g}, out of range: too large for float32 (at most "
+                           f"{FLOAT32_MAX:.3g})")
+    return arr.astype(np.float32)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import secrets
 import tempfile
@@ -110,9 +111,29 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     atomic_write(path, lambda p: Path(p).write_text(text))
 
 
-def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1, allow_nan: bool = True) -> None:
-    """``obj`` as JSON; ``allow_nan=False``: strict JSON, ValueError on a NaN or infinite float."""
-    write_text_atomic(path, json.dumps(obj, indent=indent, allow_nan=allow_nan) + "\n")
+def json_ready(value: Any) -> Any:
+    """``value`` with numpy numbers and arrays as Python ones, tuples as lists and NaN or infinite
+    floats as None: what strict JSON (no ``NaN`` / ``Infinity`` literals, which most readers refuse)
+    can hold."""
+    if isinstance(value, dict):
+        return {k if isinstance(k, str) else str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(obj: Any, indent: int | None = 1, **dumps_kwargs) -> str:
+    """``obj`` as strict JSON text (:func:`json_ready`: a NaN or infinite float becomes null)."""
+    return json.dumps(json_ready(obj), indent=indent, allow_nan=False, **dumps_kwargs)
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
+    """``obj`` as strict JSON (:func:`json_text`), written atomically."""
+    write_text_atomic(path, json_text(obj, indent=indent) + "\n")
 
 
 def save_npz_atomic(path: str | Path, **arrays) -> None:
@@ -132,6 +153,18 @@ def save_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> None:
         raise BadInput(f"figure path {path}: unknown image suffix {path.suffix!r}; "
                        f"use one of {', '.join(FIGURE_SUFFIXES)}")
     atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig_kwargs))
+
+
+def remove_stale_numbered(folder: str | Path, prefix: str, suffixes: tuple[str, ...], written) -> None:
+    """Remove the numbered files ``<prefix><digits><suffix>`` (``mesh_000.ply``, ``estimate_1000.png``)
+    in ``folder`` that are not among the paths ``written``: an earlier, longer run's, which would
+    otherwise pass for this run's."""
+    keep = {Path(p).name for p in written}
+    for path in Path(folder).glob(f"{prefix}*"):
+        number = path.name[len(prefix):]
+        for suffix in suffixes:
+            if number.endswith(suffix) and number[:-len(suffix)].isdigit() and path.name not in keep:
+                path.unlink(missing_ok=True)
 
 
 def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[str, ...] | None = None,
@@ -253,6 +286,30 @@ def numpy_load_problem(path: str | Path, exc: Exception) -> str:
             return "it holds pickled Python objects, which are not read"
         return "it has no .npy / .npz header (write it with numpy.save / numpy.savez)"
     return str(exc)
+
+
+def stored_dataset(f, name: str, what: str):
+    """The dataset ``name`` of an open HDF5 file ``f``, stored in that file. BadInput naming ``what``
+    when it is missing or a group, or is not data of this file: a soft link (dangling or not), an
+    external link, a virtual dataset or external storage (the last three read other files)."""
+    import h5py
+
+    link = f.get(name, getlink=True)
+    if link is None:
+        raise BadInput(f"{what} has no dataset {name!r} (has: {', '.join(f.keys())})")
+    if isinstance(link, h5py.ExternalLink):
+        raise BadInput(f"{what}: {name!r} is an external link to {link.path!r} in {link.filename!r}; only data "
+                       f"stored in the file itself is read")
+    if isinstance(link, h5py.SoftLink):
+        target = "a missing object" if f.get(name) is None else "another object"
+        raise BadInput(f"{what}: {name!r} is a soft link to {link.path!r} ({target}); expected the dataset itself")
+    obj = f[name]
+    if not isinstance(obj, h5py.Dataset):
+        raise BadInput(f"{what}: {name!r} is a group; expected a dataset")
+    if obj.is_virtual or obj.external:
+        kind = "a virtual dataset mapped from" if obj.is_virtual else "a dataset whose data lies in"
+        raise BadInput(f"{what}: {name!r} is {kind} other files; only data stored in the file itself is read")
+    return obj
 
 
 def load_npz(path: str | Path, what: str, fields=None) -> dict[str, np.ndarray]:

@@ -9,6 +9,7 @@ import json
 import os
 from types import SimpleNamespace
 
+import h5py
 import numpy as np
 import pytest
 import torch
@@ -16,6 +17,7 @@ import torch
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.sim.simulate import Rejected
+from tests.data.realfolders import body_image, write_labelled
 from tests.net.synth import BODITRAK, toy_body, write_toy_dataset
 
 torch.set_num_threads(1)
@@ -40,11 +42,20 @@ def world(tmp_path_factory):
     np.save(root / "good.npy", data["pressure"][:2].numpy())
     np.save(root / "zeros.npy", np.zeros((64, 27), np.float32))
     np.save(root / "huge.npy", np.full((64, 27), 1e9, np.float32))
+    np.save(root / "beyond_float32.npy", np.full((64, 27), 1e39))
     np.save(root / "slp.npy", np.ones((192, 84), np.float32))
     (root / "text.npy").write_text("1 2 3\n")
     (root / "empty.npy").write_bytes(b"")
     (root / "afile").write_text("not a folder\n")
+    with h5py.File(root / "dangling.h5", "w") as f:
+        f["pressure"] = h5py.SoftLink("/nowhere")
     write_toy_dataset(root / "nested", n=4)
+    from pressurepose.sim.bed import get_bed
+
+    for name, field, value in (("bed_tiny_cell", "press_cell_m", 1e-9), ("bed_huge", "mattress_length_m", 1e6)):
+        (root / f"{name}.json").write_text(json.dumps({**get_bed().to_dict(), field: value}))
+    write_labelled(root / "real_raw", np.stack([body_image(64, 27, seed=i) for i in range(2)]), ["supine", "left"],
+                   {"preset": "boditrak_bt3510", "units": "raw"})
     write_toy_dataset(root / "nested" / "inner", n=4, seed=2)
     return SimpleNamespace(root=root, data=root / "data", recipe=root / "recipe", model=model)
 
@@ -90,6 +101,9 @@ REFUSED = [
                                    "--out", w.root / "e1"], "empty"),
     ("infer-absurd-pressure", lambda w: ["infer", w.root / "huge.npy", "--gender", "f", "--model", w.model,
                                          "--out", w.root / "e2"], "sensor's range"),
+    ("infer-beyond-float32", lambda w: ["infer", w.root / "beyond_float32.npy", "--gender", "f", "--model", w.model,
+                                        "--out", w.root / "e7"], "beyond_float32.npy' holds values up to 1e+39, out "
+                                                                 "of range: too large for float32"),
     ("infer-other-mat", lambda w: ["infer", w.root / "slp.npy", "--gender", "f", "--model", w.model,
                                    "--out", w.root / "e3"], "resample"),
     ("calibrate-max-evals-zero", lambda w: ["calibrate", "--targets", "default", "--max-evals", 0,
@@ -103,6 +117,8 @@ REFUSED = [
     ("view-body-unknown-suffix", lambda w: ["view-body", "--out", w.root / "b.bmpx"], "expected a file ending"),
     ("infer-empty-npy", lambda w: ["infer", w.root / "empty.npy", "--gender", "f", "--model", w.model,
                                    "--out", w.root / "e4"], "empty"),
+    ("infer-hdf5-dangling-link", lambda w: ["infer", w.root / "dangling.h5", "--gender", "f", "--model", w.model,
+                                            "--out", w.root / "e6"], "'pressure' is a soft link to '/nowhere'"),
     ("infer-text-npy", lambda w: ["infer", w.root / "text.npy", "--gender", "f", "--model", w.model,
                                   "--out", w.root / "e5"], "no .npy / .npz header"),
     ("sample-negative-seed", lambda w: ["sample", "--partition", "general", "--gender", "f", "--count", 1,
@@ -159,10 +175,15 @@ REFUSED = [
     # refused before any work is done, and without a traceback
     ("evaluate-real-bad-device", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                             "--device", "foo"], "not a torch device"),
+    ("evaluate-real-gain-tiny", lambda w: ["evaluate-real", w.root / "real_raw", "--model", w.model, "--gain", 1e-300,
+                                           "--out", w.root / "er"], "the gain 1e-300 mmHg per raw unit (--gain"),
     ("evaluate-real-contact-negative", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                                   "--contact-mmhg", -1], "--contact-mmhg"),
     ("realism-examples-negative", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,
                                              "--out", w.root / "rr", "--examples", -1], "--examples"),
+    ("realism-examples-absurd", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,
+                                           "--out", w.root / "rr", "--examples", 10 ** 9], "--examples is 1000000000"),
+    ("info-examples-absurd", lambda w: ["info", w.data, "--examples", 10 ** 9], "--examples is 1000000000"),
     ("realism-wedge-flags-together", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,
                                                 "--out", w.root / "rr", "--keep-wedge", "--only-wedge"],
      "one at a time"),
@@ -178,6 +199,12 @@ REFUSED = [
     ("demo-neutral-body", lambda w: ["demo", "--gender", "n", "--out", w.root / "demo_n"], "expected f or m"),
     ("convert-missing-source", lambda w: ["convert", w.root / "no_such.p", "--out", w.root / "cv"],
      "does not exist"),
+    ("generate-bed-tiny-cell", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
+                                          "--bed", w.root / "bed_tiny_cell.json", "--out", w.root / "g6"],
+     "bed_tiny_cell.json': bed press_cell_m is 1e-09 m"),
+    ("generate-bed-huge-mattress", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
+                                              "--bed", w.root / "bed_huge.json", "--out", w.root / "g7"],
+     "bed_huge.json': bed mattress_length_m is 1000000.0 m"),
     ("generate-shard-out-of-range", lambda w: ["generate", "--partition", "general", "--gender", "f", "--count", 2,
                                                "--producer", "synthetic", "--shards", "3", "--out", w.root / "g5"],
      "do not exist"),

@@ -180,3 +180,28 @@ def test_an_output_folder_that_cannot_be_made_is_refused_up_front(tmp_path):
             check_output_path("/proc/pressurepose-out", "--out", directory=True)
     fresh = tmp_path / "a" / "b"
     assert check_output_path(fresh, "--out", directory=True) == fresh and not (tmp_path / "a").exists()
+
+
+def test_json_written_is_strict_with_non_finite_values_as_null(tmp_path):
+    """No writer can put NaN / Infinity literals (which strict JSON readers refuse) in a file:
+    write_json_atomic turns them into null, in nested dicts, lists, tuples and numpy values."""
+    record = {"a": float("nan"), "b": [1.0, float("inf"), (np.float32("-inf"), 2)], "c": np.array([np.nan, 3.0]),
+              "d": {"e": np.float64(np.nan), 4: np.int64(5)}, "f": "NaN"}
+    write_json_atomic(tmp_path / "x.json", record)
+    text = (tmp_path / "x.json").read_text()
+
+    def refuse(token):
+        raise ValueError(f"non-strict literal {token}")
+
+    assert json.loads(text, parse_constant=refuse) == {"a": None, "b": [1.0, None, [None, 2]], "c": [None, 3.0],
+                                                       "d": {"e": None, "4": 5}, "f": "NaN"}
+
+
+def test_stale_numbered_outputs_of_a_longer_run_are_removed(tmp_path):
+    from pressurepose.files import remove_stale_numbered
+
+    for name in ("mesh_000.ply", "mesh_001.obj", "mesh_1000.ply", "mesh_notes.ply", "estimate_000.png", "mine.ply"):
+        (tmp_path / name).write_text("x")
+    remove_stale_numbered(tmp_path, "mesh_", (".ply", ".obj"), [tmp_path / "mesh_000.ply"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["estimate_000.png", "mesh_000.ply", "mesh_notes.ply",
+                                                          "mine.ply"]

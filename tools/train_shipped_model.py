@@ -133,7 +133,7 @@ def cli(*args: str) -> None:
 
 def main() -> int:
     from pressurepose.cli.args import seed_arg
-    from pressurepose.sim.presets import SETTLES
+    from pressurepose.sim.settle_config import SETTLES
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--work", default="runs/shipped", help="work folder for data and the run [runs/shipped]")

@@ -63,7 +63,7 @@ NO_SITE = -1  # a taxel nothing is assigned to: no load on it
 SUPINE_SITES: tuple[str, ...] = ("head", "scapulae", "left_elbow", "right_elbow", "sacrum", "left_heel", "right_heel")
 LATERAL_SITES: tuple[str, ...] = ("head", "left_shoulder", "right_shoulder", "left_trochanter", "right_trochanter",
                                   "left_knee", "right_knee", "left_ankle", "right_ankle")
-REFERENCE_HEIGHT_M = 1.65
+SITE_RULE_HEIGHT_M = 1.65  # the site rules' lengths are for a body this tall; other heights scale them
 
 
 def site_index(name: str) -> int:
@@ -88,7 +88,7 @@ def vertex_sites(model) -> np.ndarray:
         raise BadInput(f"the body model has {jreg.shape[0]} joints; body sites need SMPL's {len(JOINT_NAMES)}")
     J = jreg @ v  # the rest joints of the mean shape
     region = np.argmax(weights, axis=1)
-    s = (v[:, 1].max() - v[:, 1].min()) / REFERENCE_HEIGHT_M
+    s = (v[:, 1].max() - v[:, 1].min()) / SITE_RULE_HEIGHT_M
     j = {n: J[i] for i, n in enumerate(JOINT_NAMES)}
     ji = {n: i for i, n in enumerate(JOINT_NAMES)}
     out = np.full(len(v), -1, dtype=np.int64)

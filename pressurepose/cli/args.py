@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+MAX_EXAMPLES = 50  # example images a picture may show per set and posture (more are unreadable, and costly)
+
 
 def seed_arg(text: str) -> int:
     """argparse type of --seed: any whole number >= 0 (what numpy's SeedSequence takes)."""

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from pressurepose.cli.args import seed_arg
+from pressurepose.cli.args import MAX_EXAMPLES, seed_arg
 from pressurepose.errors import BadInput
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
@@ -209,8 +209,8 @@ def run_info(args: argparse.Namespace) -> int:
     find_datasets(root)  # a file, a missing folder or no dataset: said before anything is written
     png = Path(args.png) if args.png else root / "info.png"
     check_output_path(png, "--png", suffixes=FIGURE_SUFFIXES)
-    if args.examples < 0:
-        raise BadInput(f"--examples is {args.examples}; expected 0 or more")
+    if not 0 <= args.examples <= MAX_EXAMPLES:
+        raise BadInput(f"--examples is {args.examples}; expected 0 to {MAX_EXAMPLES} images")
     splits = split_folders(root)
     parts = splits if len(splits) > 1 else {"": root}
     for split, folder in parts.items():

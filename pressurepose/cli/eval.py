@@ -102,6 +102,8 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_evaluate_real(args) -> int:
     import dataclasses
+    import sys
+    import warnings
 
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
@@ -134,13 +136,16 @@ def run_evaluate_real(args) -> int:
             raise BadInput(f"--gain is {args.gain}; expected a positive number of mmHg per raw unit")
         real = dataclasses.replace(real, gain=float(args.gain))
     net = resolve_model(args.model).to(device)
-    result = evaluate_real(real, net, config)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = evaluate_real(real, net, config)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     s = result.summary
     out.mkdir(parents=True, exist_ok=True)
     result.write_metrics(out / "metrics.json", data=str(args.dir), model=str(args.model or "shipped"),
                          frames=args.frames, gender=args.gender, mirror=bool(args.mirror))
-    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()},
-                      allow_nan=False)
+    write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()})
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
     corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"
     headline = (f"{result.n_images} images ({s['n_estimates']} estimates) from {args.dir} ({real.layout}); "
@@ -197,6 +202,7 @@ def add_realism_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_realism(args) -> int:
+    from pressurepose.cli.args import MAX_EXAMPLES
     from pressurepose.errors import BadInput
     from pressurepose.eval.realism_report import (
         draw_report,
@@ -209,8 +215,8 @@ def run_realism(args) -> int:
     from pressurepose.files import check_output_path, write_json_atomic
 
     out = check_output_path(args.out, "--out", directory=True)
-    if args.examples < 0:
-        raise BadInput(f"--examples is {args.examples}; expected 0 or more")
+    if not 0 <= args.examples <= MAX_EXAMPLES:
+        raise BadInput(f"--examples is {args.examples}; expected 0 to {MAX_EXAMPLES} images per set and posture")
     if args.keep_wedge and args.only_wedge:
         raise BadInput("--keep-wedge and --only-wedge go one at a time: --only-wedge already keeps the wedge images")
     sim = load_synthetic(args.synthetic, args.mat)

@@ -13,7 +13,7 @@ from pressurepose.sim.wedge import FIELDS as WEDGE_FIELDS
 
 def add_settle_argument(p) -> None:
     """``--settle`` (shared by simulate and generate)."""
-    from pressurepose.sim.presets import SETTLES
+    from pressurepose.sim.settle_config import SETTLES
 
     p.add_argument("--settle", choices=SETTLES, default="relaxed",
                    help="how bodies come to rest: neck and spine relax so the head and the heavy pelvis sink "

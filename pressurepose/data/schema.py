@@ -204,7 +204,7 @@ class GenerationConfig:
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
     calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
-    how bodies come to rest (:data:`pressurepose.sim.presets.SETTLES`: 'relaxed', the default, or
+    how bodies come to rest (:data:`pressurepose.sim.settle_config.SETTLES`: 'relaxed', the default, or
     'paper', the paper's joint springs); like the bed it changes no draw. The saved record
     (:meth:`to_dict`) leaves out the bed and the settle at their defaults.
 
@@ -259,7 +259,7 @@ class GenerationConfig:
             if not isinstance(v, (int, float, np.integer, np.floating)) or isinstance(v, bool) or not 0 <= v <= 0.5:
                 raise BadInput(f"{name} = {v!r}; expected a spread in metres from 0 to 0.5")
             object.__setattr__(self, name, float(v))
-        from pressurepose.sim.presets import SETTLES
+        from pressurepose.sim.settle_config import SETTLES
 
         if self.settle not in SETTLES:
             raise BadInput(f"settle = {self.settle!r}; expected one of {', '.join(SETTLES)}")

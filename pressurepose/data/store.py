@@ -39,7 +39,13 @@ from pressurepose.data.schema import (
     Sample,
 )
 from pressurepose.errors import BadInput
-from pressurepose.files import commit, stage, write_bytes_atomic
+from pressurepose.files import (
+    commit,
+    json_text,
+    stage,
+    stored_dataset,
+    write_bytes_atomic,
+)
 
 MANIFEST = "manifest.json"
 FORMAT = "pressurepose-dataset"
@@ -156,7 +162,7 @@ def read_shard_arrays(path: Path, fields: Sequence[str] | None = None) -> dict[s
             if name not in f:
                 raise BadInput(f"shard {path} has no field {name!r}; it has {', '.join(f.keys())}")
             try:
-                arr = f[name][()]
+                arr = stored_dataset(f, name, f"shard {path}")[()]
             except (OSError, ValueError) as exc:
                 raise BadInput(f"shard {path}: field {name!r} is unreadable ({exc})") from None
             out[name] = arr.astype(str) if arr.dtype.kind == "S" else arr
@@ -241,8 +247,7 @@ class Manifest:
         }
 
     def save(self, directory: Path) -> None:
-        write_bytes_atomic(Path(directory) / MANIFEST,
-                           (json.dumps(self.to_dict(), indent=1, sort_keys=False) + "\n").encode())
+        write_bytes_atomic(Path(directory) / MANIFEST, (json_text(self.to_dict()) + "\n").encode())
 
     @classmethod
     def new(cls, config: GenerationConfig, provenance: dict | None = None) -> "Manifest":

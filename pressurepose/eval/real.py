@@ -15,7 +15,6 @@ them.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -31,6 +30,7 @@ from pressurepose.eval.posture import (
     posture_correct,
     posture_of,
 )
+from pressurepose.files import json_ready
 from pressurepose.mat import MatSpec
 from pressurepose.pose.posture import roll_angle
 
@@ -95,20 +95,6 @@ def model_inputs(real: RealImages, net, config: RealEvalConfig = RealEvalConfig(
     return r, x, np.array(idx), genders, {"inclined_bed": int((~flat).sum()), "weak_recording": int(weak.sum())}
 
 
-def json_ready(value):
-    """``value`` with numpy numbers and arrays as Python ones and NaN or infinite floats as None, for
-    strict JSON (no NaN literals)."""
-    if isinstance(value, dict):
-        return {str(k): json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 @dataclass(frozen=True, eq=False)
 class RealEvaluation:
     """What :func:`evaluate_real` found: K estimates (an image read with one body model each).
@@ -145,7 +131,7 @@ class RealEvaluation:
         """Write :meth:`metrics` to ``path`` as strict JSON (null where a value is not a number)."""
         from pressurepose.files import write_json_atomic
 
-        write_json_atomic(path, self.metrics(**about), allow_nan=False)
+        write_json_atomic(path, self.metrics(**about))
         return Path(path)
 
     def per_estimate(self) -> list[dict]:
@@ -162,6 +148,13 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
 
     r, x, idx, genders, skipped = model_inputs(real, net, config)
     contact_mmhg = contact_threshold(net, config)
+    peak = float(x.max())
+    if peak <= contact_mmhg:
+        gain = (f"; the gain {r.gain:g} mmHg per raw unit (--gain, or the mat.json's gain) makes every reading "
+                f"that small" if r.units == "raw" and r.gain is not None else "")
+        raise BadInput(f"every image to score reads at most {peak:.3g} mmHg on the model's mat, not above the contact "
+                       f"threshold {contact_mmhg:g} mmHg: the model would see empty mats and the scores would mean "
+                       f"nothing{gain}")
     est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)

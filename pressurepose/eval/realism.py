@@ -181,14 +181,25 @@ def body_extent(images, mat: MatSpec, rule: RegionRule = DEFAULT_RULE, head=None
     return out
 
 
+def _statures(height_m, n: int) -> np.ndarray:
+    """(n,) statures in metres; BadInput naming the field and the first bad value otherwise."""
+    h = np.asarray(height_m, dtype=np.float64).reshape(-1)
+    if h.shape != (n,):
+        raise BadInput(f"height_m has shape {h.shape}; expected ({n},): one stature (m) per image")
+    bad = ~(np.isfinite(h) & (h > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadInput(f"height_m of image {i} is {h[i]:g} ({int(bad.sum())} of {n} not a positive number); "
+                       f"expected positive statures in metres")
+    return h
+
+
 def extent_ratio(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE, head=None) -> np.ndarray:
     """(N,) the body's contact extent along the bed (:func:`body_extent`, m) over its stature
     ``height_m`` (N,) m: about 0.95 for a body lying long, less for bent or drawn-up legs and for
     legs spread out of the axis's reach; NaN without contact."""
     ext = body_extent(images, mat, rule, head)
-    h = np.asarray(height_m, dtype=np.float64).reshape(-1)
-    if h.shape != (len(ext),) or not np.all(np.isfinite(h)) or np.any(h <= 0):
-        raise BadInput(f"height_m has shape {h.shape}; expected ({len(ext)},) positive statures in metres")
+    h = _statures(height_m, len(ext))
     return (ext[:, 1] - ext[:, 0]) * mat.pitch_row_m / h
 
 
@@ -205,9 +216,7 @@ def load_profile(images, mat: MatSpec, height_m, rule: RegionRule = DEFAULT_RULE
     the load lies however the legs lie (a side-lying shoulder's load, for one)."""
     p = _images(images)
     _check_mat(p, mat)
-    h = np.asarray(height_m, dtype=np.float64).reshape(-1)
-    if h.shape != (len(p),) or not np.all(np.isfinite(h)) or np.any(h <= 0):
-        raise BadInput(f"height_m has shape {h.shape}; expected ({len(p)},) positive statures in metres")
+    h = _statures(height_m, len(p))
     if not (0 < band < reach <= 1.5):
         raise BadInput(f"profile band {band!r} and reach {reach!r}: expected 0 < band < reach <= 1.5")
     edges = np.linspace(0.0, band * round(reach / band), round(reach / band) + 1)

@@ -283,7 +283,8 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
                 examples: int = 3, seed: int = 0):
     """PNG at ``path``: per posture, box plots of contact area, mean and peak pressure and region
     load shares (real vs simulated), the mean load along the body (where the report has it), and
-    ``examples`` real and simulated images at one colour scale."""
+    ``examples`` real and simulated images at one colour scale (at most as many as a posture has:
+    the figure is sized by the images there, not by the number asked for)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -292,6 +293,7 @@ def draw_report(real: ImageSet, sim: ImageSet, report: dict, path, rule: R.Regio
     from pressurepose.files import save_figure_atomic
 
     groups = list(report["postures"])
+    examples = min(int(examples), max([int(np.sum(s.posture == g)) for s in (real, sim) for g in groups] + [0]))
     rs, ss = real.stats(rule), sim.stats(rule)
     rng = np.random.default_rng(seed)
     fig = plt.figure(figsize=(17, 6.2 * len(groups)))

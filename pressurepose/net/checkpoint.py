@@ -20,8 +20,13 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput
-from pressurepose.files import atomic_write, write_text_atomic
-from pressurepose.net.model import GenderedBody, NetConfig, PressureNet
+from pressurepose.files import atomic_write, json_text, write_text_atomic
+from pressurepose.net.model import (
+    GenderedBody,
+    NetConfig,
+    PressureNet,
+    PressureNetModule,
+)
 
 FORMAT = "pressurepose.pressurenet/1"
 
@@ -75,7 +80,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
         weights = {k: v.to(dtype) if v.is_floating_point() else v for k, v in weights.items()}
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix == ".pt":
-        atomic_write(path, lambda p: torch.save({"meta": json.dumps(record), "state_dict": weights}, p))
+        atomic_write(path, lambda p: torch.save({"meta": json_text(record, indent=None), "state_dict": weights}, p))
         return path
     groups = {"": weights}
     if split_modules:
@@ -88,7 +93,7 @@ def save_model(path: str | Path, net: PressureNet, bodies: tuple[BodyModel, Body
     if split_modules:
         record["weight_files"] = sorted(files)
     meta_path = path.with_suffix(".json")
-    write_text_atomic(meta_path, json.dumps(record, indent=1))
+    write_text_atomic(meta_path, json_text(record))
     return meta_path if split_modules else path.with_suffix(".safetensors")
 
 
@@ -172,6 +177,22 @@ def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
     return meta, weights
 
 
+def _check_weight_shapes(path, config: NetConfig, weights: dict[str, torch.Tensor]) -> None:
+    """BadInput, before any network is built, when a stored CNN or output weight has another shape
+    than ``config`` gives it: the network is sized by its config, which must not make it larger
+    than the weights the file holds. (Shapes only: built on the meta device, nothing allocated.)"""
+    with torch.device("meta"):
+        modules = {"mod1": PressureNetModule(config, config.inputs.num_channels()),
+                   "mod2": PressureNetModule(config, config.inputs.num_channels(2 if config.use_pmr else 0))}
+    for prefix, module in modules.items():
+        for name, tensor in module.state_dict().items():
+            stored = weights.get(f"{prefix}.{name}")
+            if stored is not None and tuple(stored.shape) != tuple(tensor.shape):
+                raise BadInput(f"model file {str(path)!r}: its config makes {prefix}.{name} of shape "
+                               f"{tuple(tensor.shape)} but the stored weights are {tuple(stored.shape)}; the config "
+                               f"(grid, inputs.upsample, cnn_channels, use_pmr, gender_input) does not fit the weights")
+
+
 def load_model(path: str | Path, bodies: tuple[BodyModel, BodyModel] | None = None,
                device: str | torch.device | None = None) -> tuple[PressureNet, dict]:
     """Load a saved PressureNet (eval mode) and its metadata.
@@ -180,10 +201,13 @@ def load_model(path: str | Path, bodies: tuple[BodyModel, BodyModel] | None = No
     their identities must equal the stored ones (BadInput otherwise, naming both).
     """
     meta, weights = read_model_files(path)
+    if "config" not in meta:
+        raise BadInput(f"model file {str(path)!r} holds no 'config'")
     try:
         config = NetConfig.from_dict(meta["config"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise BadInput(f"model file {str(path)!r}: its config is not a PressureNet config ({exc})") from None
+    except BadInput as exc:
+        raise BadInput(f"model file {str(path)!r}: config: {exc}") from None
+    _check_weight_shapes(path, config, weights)
     stored = meta.get("bodies", {})
     if bodies is None:
         try:

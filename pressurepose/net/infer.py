@@ -26,9 +26,10 @@ import torch
 from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, finite_float32
 from pressurepose.files import (
     atomic_write,
+    remove_stale_numbered,
     save_npz_atomic,
     write_json_atomic,
 )
@@ -161,11 +162,7 @@ class Estimate:
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
             atomic_write(p, lambda t, mesh=mesh: mesh.export(str(t), file_type=mesh_format))
             paths.append(p)
-        # meshes of an earlier, longer estimate in the same folder would pass for this one's
-        written = set(paths)
-        for stale in [*out.glob("mesh_[0-9][0-9][0-9].ply"), *out.glob("mesh_[0-9][0-9][0-9].obj")]:
-            if stale not in written:
-                stale.unlink()
+        remove_stale_numbered(out, "mesh_", (".ply", ".obj"), paths)  # an earlier, longer estimate's
         return paths
 
 
@@ -193,19 +190,17 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
         elif suffix in (".h5", ".hdf5"):
             import h5py
 
+            from pressurepose.files import stored_dataset
+
             with h5py.File(path, "r") as f:
-                if key not in f or not isinstance(f[key], h5py.Dataset):
-                    raise BadInput(f"HDF5 file {str(path)!r} has no dataset {key!r} (has: {', '.join(f.keys())})")
-                arr = f[key][()]
+                arr = stored_dataset(f, key, f"HDF5 file {str(path)!r}")[()]
         else:
             raise BadInput(f"pressure file {str(path)!r}: expected .npy, .csv, .npz, .h5 or .hdf5")
     except BadInput:
         raise
     except (ValueError, OSError) as exc:
         raise BadInput(f"pressure file {str(path)!r} could not be read ({exc})") from None
-    if arr.dtype.kind not in "fiub":
-        raise BadInput(f"pressure file {str(path)!r} holds {arr.dtype} values; expected numbers")
-    return np.asarray(arr, dtype=np.float32)
+    return finite_float32(arr, f"pressure file {str(path)!r}")
 
 
 def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
@@ -232,10 +227,12 @@ def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
         raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 and .npz files can carry genders)")
     import h5py
 
+    from pressurepose.files import stored_dataset
+
     with h5py.File(path, "r") as f:
         if key not in f:
             raise BadInput(f"HDF5 file {str(path)!r} has no {key!r} dataset; pass --gender")
-        values = f[key][()]
+        values = stored_dataset(f, key, f"HDF5 file {str(path)!r}")[()]
     return [v.decode() if isinstance(v, bytes) else str(v) for v in np.atleast_1d(values)]
 
 
@@ -245,7 +242,6 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
     arr = np.asarray(pressure.detach().cpu() if isinstance(pressure, torch.Tensor) else pressure)
     if arr.dtype.kind not in "fiub":
         raise BadInput(f"{what} has dtype {arr.dtype}; expected numbers")
-    arr = arr.astype(np.float32)
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != tuple(shape) or arr.shape[0] == 0:
@@ -253,8 +249,7 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
                 "with pressurepose.data.resample.resample_pressure" if arr.ndim in (2, 3) and arr.shape[0] else "")
         raise BadInput(f"{what} has shape {np.shape(pressure)}; this model's mat is {shape[0]} x {shape[1]} "
                        f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]})){hint}")
-    if not np.all(np.isfinite(arr)):
-        raise BadInput(f"{what} contains NaN or infinite values")
+    arr = finite_float32(arr, what)
     if np.any(arr < 0):
         raise BadInput(f"{what} has negative values (min {arr.min():.3g}); pressures must be >= 0")
     return arr
@@ -280,6 +275,19 @@ def pressure_warnings(arr: np.ndarray, max_mmhg: float = SENSOR_MAX_MMHG, what: 
         notes.append(f"{what}: image(s) {', '.join(map(str, over[:10].tolist()))} read above the sensor's range "
                      f"(peak {peak:.3g} > {max_mmhg:g} mmHg); the model never saw such readings")
     return notes
+
+
+def floor_warnings(arr: np.ndarray, floor_mmhg: float, what: str = "pressure") -> list[str]:
+    """A sentence about checked images (B, R, C) that are not all zero but read nothing above
+    ``floor_mmhg``, a model's contact floor (:class:`~pressurepose.net.transforms.InputConfig`): the
+    model drops readings at or below it, so it sees an empty mat. [] when there are none."""
+    peak = arr.reshape(len(arr), -1).max(axis=1)
+    faint = np.flatnonzero((peak > 0) & (peak <= floor_mmhg))
+    if not len(faint):
+        return []
+    return [f"{what}: image(s) {', '.join(map(str, faint[:10].tolist()))}{' ...' if len(faint) > 10 else ''} read at "
+            f"most {float(peak[faint].max()):.3g} mmHg, not above the model's contact floor ({floor_mmhg:g} mmHg), at "
+            f"or below which it drops readings: it sees an empty mat, and their estimates mean nothing"]
 
 
 def _genders(gender, n: int) -> list[str]:
@@ -366,9 +374,10 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     (:mod:`pressurepose.net.mirror`; about twice the work).
     what: the input's name in messages (default: the file, or 'pressure').
 
-    Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings`) about empty images and
-    readings above the sensor's range; BadInput when every image is empty or readings lie beyond
-    10 times the range (not mmHg).
+    Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings` and
+    :func:`floor_warnings`) about empty images, readings above the sensor's range and images that read
+    nothing above the model's contact floor; BadInput when every image is empty or readings lie
+    beyond 10 times the range (not mmHg).
     """
     import warnings
 
@@ -393,7 +402,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         arr = check_pressure(pressure, net.config.grid.shape, what=what)
         notes = None
     genders = _genders(gender, len(arr))
-    for note in pressure_warnings(arr, net.config.grid.max_mmhg, what) if notes is None else notes:
+    if notes is None:
+        notes = pressure_warnings(arr, net.config.grid.max_mmhg, what)
+    for note in notes + floor_warnings(arr, net.config.inputs.contact_floor_mmhg, what):
         warnings.warn(note, stacklevel=2)
     parts = run_network(net, arr, genders, batch_size, progress, mirror)
 

@@ -17,13 +17,27 @@ from dataclasses import asdict, dataclass, field
 import torch
 from torch import nn
 
+from pressurepose.errors import (
+    BadInput,
+    require_finite,
+    require_positive,
+    require_whole,
+)
 from pressurepose.mat import MatSpec
-from pressurepose.net.cnn import PAPER_CHANNELS, PressureCNN
+from pressurepose.net.cnn import (
+    NUM_OUTPUTS,
+    PAPER_CHANNELS,
+    PressureCNN,
+    conv_output_size,
+    flattened_size,
+)
 from pressurepose.net.outputs import BodyParams, OutputConfig, OutputLayer
 from pressurepose.net.pmr import PMRConfig, PMRMaps, pmr
 from pressurepose.net.transforms import InputConfig, input_channels, map_channels
 
 GENDER_CODES = {"f": 0, "female": 0, "m": 1, "male": 1}
+MAX_CHANNELS = 4096          # widest CNN layer a config may ask for (the paper's widest: 384)
+MAX_FC_WEIGHTS = 250_000_000  # one module's linear layer (the paper's 64 x 27 mat at x2: 5.9e6; SLP at x2: 1.1e8)
 
 
 def full_precision(device: torch.device):
@@ -55,18 +69,69 @@ class NetConfig:
     dropout: float = 0.1
     cnn_channels: tuple[int, int, int, int] = PAPER_CHANNELS
 
+    def __post_init__(self):
+        """BadInput naming the field for values no network can be built from, or a network whose
+        linear layers would exceed :data:`MAX_FC_WEIGHTS` (an input far larger than any mat's)."""
+        for name, kind in (("grid", MatSpec), ("outputs", OutputConfig), ("inputs", InputConfig), ("pmr", PMRConfig)):
+            if not isinstance(getattr(self, name), kind):
+                raise BadInput(f"{name} is {type(getattr(self, name)).__name__}; expected a {kind.__name__}")
+        for name in ("use_pmr", "gender_input"):
+            if not isinstance(getattr(self, name), bool):
+                raise BadInput(f"{name} is {getattr(self, name)!r}; expected true or false")
+        require_finite("dropout", self.dropout)
+        if not 0.0 <= self.dropout < 1.0:
+            raise BadInput(f"dropout is {self.dropout!r}; expected a probability from 0 to below 1 (the paper's 0.1)")
+        channels = self.cnn_channels
+        if isinstance(channels, (str, bytes)) or not hasattr(channels, "__len__") or len(channels) != 4:
+            raise BadInput(f"cnn_channels is {channels!r}; expected the widths of the CNN's four conv layers")
+        for i, c in enumerate(channels):
+            require_whole(f"cnn_channels[{i}]", c, 1, MAX_CHANNELS)
+        object.__setattr__(self, "cnn_channels", tuple(int(c) for c in channels))
+        p = self.pmr
+        require_whole("pmr.fill_passes", p.fill_passes, 0, 64)
+        for name in ("empty_depth_m", "contact_softness_m", "q_scale"):
+            require_positive(f"pmr.{name}", getattr(p, name))
+        h, w = self.inputs.input_size(self.grid.rows, self.grid.cols)
+        oh, ow = conv_output_size(h, w)
+        if oh < 1 or ow < 1:
+            raise BadInput(f"grid {self.grid.rows} x {self.grid.cols} at inputs.upsample {self.inputs.upsample} is a "
+                           f"{h} x {w} input; the CNN needs at least 31 x 31")
+        fc = (flattened_size(h, w, self.cnn_channels[-1]) + 1) * NUM_OUTPUTS
+        if fc > MAX_FC_WEIGHTS:
+            raise BadInput(f"grid {self.grid.rows} x {self.grid.cols} at inputs.upsample {self.inputs.upsample} with "
+                           f"cnn_channels {self.cnn_channels} makes a linear layer of {fc:.3g} weights; expected at "
+                           f"most {MAX_FC_WEIGHTS:.3g} (a smaller upsample or fewer channels)")
+
     def to_dict(self) -> dict:
         return asdict(self)
 
     @staticmethod
     def from_dict(d: dict) -> "NetConfig":
-        """Inverse of :meth:`to_dict`; raises TypeError/ValueError on unknown or missing fields."""
+        """Inverse of :meth:`to_dict`; BadInput naming the field (``grid``, ``outputs.gain``,
+        ``dropout`` ...) for a missing, unknown or unusable one."""
+        if not isinstance(d, dict):
+            raise BadInput(f"config is {type(d).__name__}; expected a JSON object")
         d = dict(d)
-        out = d.pop("outputs")
-        out = OutputConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
-        d["cnn_channels"] = tuple(int(c) for c in d["cnn_channels"])
-        return NetConfig(grid=MatSpec.from_dict(d.pop("grid")), outputs=out, inputs=InputConfig(**d.pop("inputs")),
-                         pmr=PMRConfig(**d.pop("pmr")), **d)
+        if "cnn_channels" not in d:
+            raise BadInput("lacks 'cnn_channels'")
+        parts = {}
+        for name, build in (("grid", MatSpec.from_dict), ("outputs", OutputConfig), ("inputs", InputConfig),
+                            ("pmr", PMRConfig)):
+            if name not in d:
+                raise BadInput(f"lacks {name!r}")
+            part = d.pop(name)
+            if not isinstance(part, dict):
+                raise BadInput(f"{name} is {part!r:.80}; expected a JSON object")
+            try:
+                parts[name] = build(part) if name == "grid" else build(**part)
+            except TypeError as exc:  # an unknown or a missing field
+                raise BadInput(f"{name}: {exc}") from None
+            except BadInput as exc:
+                raise BadInput(f"{name}: {exc}" if name == "grid" else str(exc)) from None
+        try:
+            return NetConfig(**parts, **d)
+        except TypeError as exc:
+            raise BadInput(str(exc).replace("NetConfig.__init__()", "config")) from None
 
 
 @dataclass

@@ -28,6 +28,7 @@ import torch
 from torch import nn
 
 from pressurepose.body.joints import JOINT_NAMES
+from pressurepose.errors import BadInput, require_numbers, require_positive
 from pressurepose.net.rotations import euler_to_root_axis_angle, pairs_to_euler
 
 NUM_BETAS = 10
@@ -109,6 +110,21 @@ class OutputConfig:
     transl_scale: tuple[float, float, float]
     gain: float = 0.1
 
+    def __post_init__(self):
+        """BadInput naming the field (``outputs.<name>``) for values no output layer can use."""
+        n = SL_ANGLES.stop - SL_ANGLES.start  # 69 joint angles
+        lo = require_numbers("outputs.angle_lower", self.angle_lower, n)
+        hi = require_numbers("outputs.angle_upper", self.angle_upper, n)
+        if not all(a < b for a, b in zip(lo, hi)):
+            j = next(i for i, (a, b) in enumerate(zip(lo, hi)) if not a < b)
+            raise BadInput(f"outputs.angle_lower[{j}] = {lo[j]!r} is not below outputs.angle_upper[{j}] = {hi[j]!r}")
+        require_positive("outputs.gain", self.gain)
+        for name, v in (("angle_lower", lo), ("angle_upper", hi),
+                        ("transl_offset", require_numbers("outputs.transl_offset", self.transl_offset, 3)),
+                        ("transl_scale", require_numbers("outputs.transl_scale", self.transl_scale, 3, positive=True)),
+                        ("gain", float(self.gain))):
+            object.__setattr__(self, name, v)
+
     @staticmethod
     def default(transl_offset, transl_scale, inflate: float = 1.2, gain: float = 0.1,
                 sampled: tuple[np.ndarray, np.ndarray] | None = None) -> "OutputConfig":
@@ -147,8 +163,6 @@ class OutputLayer(nn.Module):
         self.config = config
         lo = torch.tensor(config.angle_lower, dtype=torch.float32)
         hi = torch.tensor(config.angle_upper, dtype=torch.float32)
-        if lo.shape != (69,) or hi.shape != (69,) or not bool((hi > lo).all()):
-            raise ValueError("angle limits must be 69 lower < upper values")
         offset = torch.cat([torch.zeros(10), torch.tensor(config.transl_offset, dtype=torch.float32),
                             torch.tensor([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (lo + hi) / 2])
         scale = torch.cat([torch.full((10,), 2 * BETA_LIMIT), torch.tensor(config.transl_scale, dtype=torch.float32),

@@ -42,7 +42,7 @@ import torch
 
 from pressurepose.body.model import BodyModel
 from pressurepose.errors import BadInput, record_difference
-from pressurepose.files import atomic_write, write_text_atomic
+from pressurepose.files import atomic_write, write_json_atomic, write_text_atomic
 from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.cnn import CNN_VARIANTS
@@ -293,7 +293,7 @@ def _save_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, rec
             tensors[f"opt.{i}.{k}"] = torch.as_tensor(v).detach().cpu().contiguous()
     record = {**record, "param_groups": st["param_groups"]}
     atomic_write(out_dir / "state.safetensors", lambda p: save_file(tensors, str(p)))
-    atomic_write(out_dir / "state.json", lambda p: p.write_text(json.dumps(record, indent=1)))
+    write_json_atomic(out_dir / "state.json", record)
 
 
 def _load_state(out_dir: Path, net: PressureNet, opt: torch.optim.Optimizer, record: dict) -> None:

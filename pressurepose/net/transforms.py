@@ -17,7 +17,10 @@ from dataclasses import dataclass
 import torch
 import torch.nn.functional as F
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_whole
+
+MAX_UPSAMPLE = 8         # input zoom factors a model may use (the paper's 2 for the 64 x 27 mat)
+MAX_BLUR_SIGMA = 10.0    # taxels
 
 
 @dataclass(frozen=True)
@@ -42,8 +45,18 @@ class InputConfig:
     contact_floor_mmhg: float = 0.0
 
     def __post_init__(self):
-        if not 0.0 <= self.contact_floor_mmhg < float("inf"):
-            raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg!r}; expected a pressure >= 0 (mmHg)")
+        """BadInput naming the field (``inputs.<name>``) for a value no input transform can use."""
+        require_whole("inputs.upsample", self.upsample, 1, MAX_UPSAMPLE)
+        require_non_negative("inputs.blur_sigma", self.blur_sigma)
+        if self.blur_sigma > MAX_BLUR_SIGMA:
+            raise BadInput(f"inputs.blur_sigma is {self.blur_sigma!r} taxels; expected at most {MAX_BLUR_SIGMA:g} "
+                           f"(a wider blur erases the image; the paper's is 0.5)")
+        if not isinstance(self.edges_contact, bool):
+            raise BadInput(f"inputs.edges_contact is {self.edges_contact!r}; expected true or false")
+        require_non_negative("inputs.contact_floor_mmhg", self.contact_floor_mmhg)
+        object.__setattr__(self, "upsample", int(self.upsample))
+        object.__setattr__(self, "blur_sigma", float(self.blur_sigma))
+        object.__setattr__(self, "contact_floor_mmhg", float(self.contact_floor_mmhg))
 
     def num_channels(self, extra: int = 0) -> int:
         """Input channels: P (+ E, C_I) (+ ``extra`` PMR maps for Mod2)."""

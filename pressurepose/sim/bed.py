@@ -297,7 +297,10 @@ def load_bed(path) -> BedSpec:
     if not isinstance(record, dict) or not isinstance(record.get("mat"), dict):
         raise BadInput(f"bed file {str(p)!r} holds no bed record (write one with pressurepose calibrate, "
                        f"or BedSpec.to_dict)")
-    return BedSpec.from_dict(record)
+    try:
+        return BedSpec.from_dict(record)
+    except BadInput as exc:
+        raise BadInput(f"bed file {str(p)!r}: {exc}") from None
 
 
 def bed_for(mat: str | None = None, bed_file=None) -> BedSpec:

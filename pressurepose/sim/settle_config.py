@@ -3,7 +3,7 @@ made with. Imports no simulator: a dataset's or a command's settle is checked wi
 
 * :class:`SettleConfig`: every setting of the settle (defaults: the paper's procedure, section 3.2
   and appendix A.2, with a relaxed neck and spine and a coarser step late in the settle).
-* :func:`settle_preset`: the config of a named settle (:data:`pressurepose.sim.presets.SETTLES`).
+* :func:`settle_preset`: the config of a named settle (:data:`SETTLES`).
 """
 
 from __future__ import annotations
@@ -14,10 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.sim.presets import SETTLES
 from pressurepose.sim.springs import LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS
 
 CONES = ("pyramidal", "elliptic")  # MuJoCo's friction cones
+# the settles a dataset can be made with (``GenerationConfig.settle``, ``--settle``; :func:`settle_preset`)
+SETTLES: tuple[str, ...] = ("relaxed", "paper")
 
 
 @dataclass(frozen=True)

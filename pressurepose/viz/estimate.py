@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pressurepose.files import save_figure_atomic
+from pressurepose.files import remove_stale_numbered, save_figure_atomic
 from pressurepose.net.infer import Estimate
 
 CAPTION = ("Q is how far the estimated body's lower surface lies below the mattress top at each taxel. Where the "
@@ -61,8 +61,5 @@ def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int =
         save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         paths.append(p)
-    written = set(paths)
-    for stale in out.glob("estimate_[0-9][0-9][0-9].png"):
-        if stale not in written:
-            stale.unlink()
+    remove_stale_numbered(out, "estimate_", (".png",), paths)  # an earlier, longer estimate's
     return paths

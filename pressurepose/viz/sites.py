@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.body.sites import SITES
-from pressurepose.files import save_figure_atomic
+from pressurepose.files import remove_stale_numbered, save_figure_atomic
 from pressurepose.net.infer import Estimate
 
 THRESHOLD_MMHG = 32.0  # capillary closing pressure (Landis 1930), as pressurepose.eval.monitor
@@ -107,9 +107,6 @@ def save_site_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16)
         save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         paths.append(p)
-    written = set(paths)
-    for stale in out.glob("sites_[0-9][0-9][0-9].png"):
-        if stale not in written:
-            stale.unlink()
+    remove_stale_numbered(out, "sites_", (".png",), paths)  # an earlier, longer estimate's
     return paths
 

@@ -126,3 +126,86 @@ def test_one_real_pmd_i_file_has_a_startup_frame_and_a_body(tmp_path):
     ok = valid_frames(stack)
     assert not ok[:2].any() and ok[2:].all()  # near-blank first frame, saturated start-up second
 
+
+
+SUBJECT_HEAD = "Subject-Number,Age,Height/cm,Weight/kg\n"
+# (case, subject-info-i.csv rows after the header, what the refusal must say)
+BAD_SUBJECT_INFO = [
+    ("height-nan", "1,30,nan,70\n2,30,170,70\n", r"line 2, subject 1: height nan m .* expected 0.5-2.6 m"),
+    ("height-inf", "1,30,inf,70\n2,30,170,70\n", r"subject 1: height inf m"),
+    ("height-negative", "1,30,-175,70\n2,30,170,70\n", r"subject 1: height -1.75 m \(read as -175 cm\)"),
+    ("height-in-mm-under-a-cm-header", "1,30,1750,70\n2,30,170,70\n", r"subject 1: height 17.5 m \(read as 1750 cm\)"),
+    ("weight-huge", "1,30,175,1e300\n2,30,170,70\n", r"subject 1: weight 1e\+300 kg .* expected 2-400 kg"),
+    ("weight-nan", "1,30,175,70\n2,30,170,nan\n", r"subject-info-i.csv line 3, subject 2: weight nan kg"),
+    ("subject-twice", "1,30,175,70\n2,30,170,70\n1,30,180,80\n",
+     r"line 4: subject 1 is listed again \(first on line 2\)"),
+    ("subject-not-whole", "1.5,30,175,70\n2,30,170,70\n", r"line 2: subject '1.5' is not a whole number"),
+]
+
+
+@pytest.mark.parametrize("case,rows,message", BAD_SUBJECT_INFO, ids=[c[0] for c in BAD_SUBJECT_INFO])
+def test_pmd_subject_info_refuses_what_is_not_a_person(tmp_path, case, rows, message):
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1, 2), postures=(1,))
+    (root / "subject-info-i.csv").write_text(SUBJECT_HEAD + rows)
+    with pytest.raises(BadInput, match=message):
+        read_real(root)
+
+
+def test_pmd_heights_follow_the_unit_the_header_names(tmp_path):
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1, 2), postures=(1,))
+    (root / "subject-info-i.csv").write_text("Subject,Height (mm),Weight (kg)\n1,1750,70\n2,1620,55\n")
+    assert read_real(root).height_m.tolist() == pytest.approx([1.75, 1.62])
+    (root / "subject-info-i.csv").write_text("Subject,Height,Weight\n1,1.75,70\n2,162,55\n")  # no unit: > 3 is cm
+    assert read_real(root).height_m.tolist() == pytest.approx([1.75, 1.62])
+
+
+def test_one_subject_in_two_folders_is_refused(tmp_path):
+    import shutil
+
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1, 2), postures=(1,))
+    shutil.copytree(root / "S1", root / "S01")
+    with pytest.raises(BadInput, match="folders S01 and S1 are both subject 1"):
+        read_real(root)
+
+
+def test_a_non_finite_reading_names_the_file_line_and_reading(tmp_path):
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1,), postures=(1,))
+    path = root / "S1" / "1.txt"
+    lines = path.read_text().splitlines()
+    lines[2] = lines[2].replace("\t", "\tnan\t", 1).split("\t", 1)[1]  # reading 1 is the frame's first, now nan
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BadInput, match=r"S1/1.txt line 3: reading 1 is 'nan', not a finite number"):
+        read_real(root)
+    root = write_pmd_ii(tmp_path / "q")
+    bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
+    rows = bad.read_text().splitlines()
+    rows[4] = " ".join(["0"] * 26 + ["1e39"])
+    bad.write_text("\n".join(rows) + "\n")
+    with pytest.raises(BadInput, match=rf"{bad.name} line 5: reading 27 is '1e39', out of range \(too large for float32"):
+        read_real(root)
+
+
+def test_labelled_folder_edge_cases(tmp_path):
+    """Excel's "CSV UTF-8" labels (with a byte-order mark) read; a boolean gain, values beyond
+    float32 and a labels.csv row out of range are refused by name."""
+    imgs = np.stack([body_image(64, 27, seed=i) for i in range(2)])
+    mat = {"preset": "boditrak_bt3510", "units": "raw"}
+    root = write_labelled(tmp_path / "bom", imgs, ["supine", "left"], mat, weights=[70, 80])
+    (root / "labels.csv").write_bytes(b"\xef\xbb\xbf" + (root / "labels.csv").read_bytes())
+    assert read_real(root).posture.tolist() == ["supine", "left"]
+    root = write_labelled(tmp_path / "gain", imgs, ["supine", "left"], {**mat, "gain": True})
+    with pytest.raises(BadInput, match="mat.json: gain is True; expected a positive number"):
+        read_real(root)
+    huge = imgs.copy()
+    huge[1, 3, 4] = 1e39  # finite in float64, infinite in float32
+    root = write_labelled(tmp_path / "huge", huge, ["supine", "left"], mat)
+    with pytest.raises(BadInput, match=r"images.npy holds values up to 1e\+39, out of range: too large for float32"):
+        read_real(root)
+    root = write_labelled(tmp_path / "tall", imgs, ["supine", "left"], mat, heights=[1.7, 175])
+    with pytest.raises(BadInput, match=r"labels.csv line 3: height 175 m is not a person's stature"):
+        read_real(root)
+    npz = write_labelled(tmp_path / "npz", imgs, ["supine", "left"], mat)
+    with open(npz / "images.npy", "wb") as fh:
+        np.savez(fh, images=imgs)
+    with pytest.raises(BadInput, match="npz archive under another name"):
+        read_real(npz)

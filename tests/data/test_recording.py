@@ -106,6 +106,8 @@ def test_bad_recordings_say_what_is_wrong(tmp_path):
         read_recording(img.T, BT, "mmHg")
     with pytest.raises(BadInput, match="finite and >= 0"):
         read_recording(-img, BT, "mmHg")
+    with pytest.raises(BadInput, match=r"values up to 1e\+39, out of range: too large for float32"):
+        read_recording(np.where(img > 0, 1e39, 0.0), BT, "mmHg")  # finite in float64, not in float32
     with pytest.raises(BadInput, match="not a positive number of kg"):
         read_recording(img, BT, "raw", weight_kg=-3)
     with pytest.raises(BadInput, match="gain is"):

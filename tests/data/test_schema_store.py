@@ -232,3 +232,18 @@ def test_a_folder_of_other_files_is_refused_and_left_as_it_was(tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     assert generate(small_config(count=6, shard_size=6), empty, progress=False).made == 1
+
+
+def test_a_shard_field_reaching_into_another_file_is_refused(tmp_path):
+    """A shard's fields are read only from the shard: an external link (into any file the reader can
+    open) is refused by name."""
+    import h5py
+
+    from pressurepose.data.store import read_shard_arrays
+
+    with h5py.File(tmp_path / "other.h5", "w") as f:
+        f["pressure"] = np.ones((1, 64, 27), np.float32)
+    with h5py.File(tmp_path / "shard-00000.h5", "w") as f:
+        f["pressure"] = h5py.ExternalLink(str(tmp_path / "other.h5"), "/pressure")
+    with pytest.raises(BadInput, match=r"shard .*shard-00000.h5: 'pressure' is an external link"):
+        read_shard_arrays(tmp_path / "shard-00000.h5", ["pressure"])

@@ -105,6 +105,11 @@ def test_bad_input_names_the_problem():
         R.image_stats(-np.ones((1, 64, 27)), MAT)
     with pytest.raises(BadInput, match="bounds"):
         R.RegionRule(bounds=(0.5, 0.4, 0.6, 0.7, 0.8, 0.9))
+    img = np.stack([body(), body()])
+    with pytest.raises(BadInput, match=r"height_m of image 1 is nan \(1 of 2 not a positive number\)"):
+        R.extent_ratio(img, MAT, [1.7, float("nan")])
+    with pytest.raises(BadInput, match=r"height_m has shape \(1,\); expected \(2,\)"):
+        R.load_profile(img, MAT, [1.7])
 
 
 def test_realism_verb_end_to_end(tmp_path):
@@ -330,3 +335,31 @@ def test_goal_verdicts_judge_each_goal_at_its_bounds():
     assert share["interval"] == [4.8, 7.5] and share["interval_holds_goal"]
     assert goal_verdicts([row(1.0, 1.0, 6.0, (5.2, 7.5))])[2]["interval_holds_goal"] is False
     assert goal_verdicts([row(1.0, 1.0, 4.0, None)])[2]["interval_holds_goal"] is None
+
+
+def test_the_realism_figure_is_sized_by_the_images_there(tmp_path, monkeypatch):
+    """Asking for more example images than a posture has draws a figure of the images there: its
+    grid of examples has as many columns as the images (and the colour bar), not as asked."""
+    import pressurepose.files as files
+    from pressurepose.eval.realism_report import (
+        draw_report,
+        load_real,
+        load_synthetic,
+        realism_report,
+    )
+
+    write_labelled(tmp_path / "real", np.stack([body()] * 3), ["supine"] * 3,
+                   {"preset": "boditrak_bt3510", "units": "mmHg"})
+    pose = np.zeros((2, 72))
+    pose[:, :3] = SUPINE_ROOT
+    sim = np.stack([body(), body(head=False)])
+    force = sim * MAT.taxel_area_m2 * 133.322
+    np.savez(tmp_path / "sim.npz", pressure=sim, force=force, pose=pose, mass=force.sum((1, 2)) / 9.81)
+    s = load_synthetic(tmp_path / "sim.npz")
+    r = load_real(tmp_path / "real", s.mat)
+    figures = []
+    monkeypatch.setattr(files, "save_figure_atomic", lambda fig, path, **kw: figures.append(fig))
+    draw_report(r, s, realism_report(r, s), tmp_path / "x.png", examples=40)
+    image_axes = [ax for ax in figures[0].axes if ax.images]
+    assert len(image_axes) == 3 + 2
+    assert {ax.get_subplotspec().get_gridspec().ncols for ax in image_axes} == {2 * 3 + 1}

@@ -127,3 +127,62 @@ def test_one_modules_weights_point_to_the_models_json():
     shipped = Path(DEFAULT_MODEL)
     with pytest.raises(BadInput, match=f"pass .*{shipped.name}"):
         read_model_files(shipped.with_name(shipped.stem + ".mod1.safetensors"))
+
+
+def _set(*keys, value):
+    def edit(config):
+        for k in keys[:-1]:
+            config = config[k]
+        config[keys[-1]] = value
+    return edit
+
+
+# (case, an edit of the saved config, what the refusal must name); each names the model file too
+BAD_CONFIG = [
+    ("dropout-above-one", _set("dropout", value=2.0), "config: dropout is 2.0; expected a probability"),
+    ("negative-channels", _set("cnn_channels", value=[-4, 4, 4, 4]), r"cnn_channels\[0\] is -4"),
+    ("huge-channels", _set("cnn_channels", value=[10 ** 5, 4, 4, 4]), r"cnn_channels\[0\] is 100000"),
+    ("upsample-zero", _set("inputs", "upsample", value=0), "inputs.upsample is 0"),
+    ("upsample-huge", _set("inputs", "upsample", value=100), "inputs.upsample is 100"),
+    ("upsample-float", _set("inputs", "upsample", value=2.5), "inputs.upsample is 2.5"),
+    ("blur-huge", _set("inputs", "blur_sigma", value=1e6), "inputs.blur_sigma is 1000000.0"),
+    ("gain-text", _set("outputs", "gain", value="x"), "outputs.gain is 'x'"),
+    ("gain-zero", _set("outputs", "gain", value=0), "outputs.gain is 0"),
+    ("transl-offset-nan", _set("outputs", "transl_offset", value=[float("nan")] * 3),
+     r"outputs.transl_offset\[0\] is nan"),
+    ("transl-scale-two", _set("outputs", "transl_scale", value=[1.0, 1.0]), "outputs.transl_scale is .*expected 3"),
+    ("angle-limits-crossed", _set("outputs", "angle_lower", value=[1.0] * 69), r"outputs.angle_lower\[0\] = 1.0 is not"),
+    ("grid-rows-million", _set("grid", "rows", value=10 ** 6), "grid: mat of 1000000 x 16 taxels"),
+    ("grid-rows-huge-input", _set("grid", "rows", value=30000), "linear layer of 5.07e\\+08 weights"),
+    ("grid-too-small", _set("grid", "rows", value=4), "the CNN needs at least 31 x 31"),
+    ("use-pmr-number", _set("use_pmr", value=1), "use_pmr is 1; expected true or false"),
+    ("pmr-passes-negative", _set("pmr", "fill_passes", value=-1), "pmr.fill_passes is -1"),
+    ("no-cnn-channels", lambda config: config.pop("cnn_channels"), "lacks 'cnn_channels'"),
+    ("no-inputs", lambda config: config.pop("inputs"), "lacks 'inputs'"),
+    ("unknown-field", _set("inputs", "colour", value=1), "inputs: .*unexpected keyword argument 'colour'"),
+    # valid on its own but not the stored weights' network: refused before a larger one is built
+    ("grid-other-size", _set("grid", "rows", value=100),
+     r"makes mod1.cnn.fc.weight of shape \(88, 16512\) but the stored weights are \(88, 384\)"),
+    ("wider-channels", _set("cnn_channels", value=[4096] * 4), r"mod1.cnn.features.0.weight of shape \(4096, 3, 7, 7\)"),
+]
+
+
+@pytest.mark.parametrize("case,edit,message", BAD_CONFIG, ids=[c[0] for c in BAD_CONFIG])
+def test_model_config_values_are_checked_by_name(tmp_path, case, edit, message):
+    net, body = _net()
+    path = save_model(tmp_path / "m.safetensors", net, (body, body))
+    record = json.loads((tmp_path / "m.json").read_text())
+    edit(record["config"])
+    (tmp_path / "m.json").write_text(json.dumps(record))
+    with pytest.raises(BadInput, match=rf"model file '.*m.json': .*{message}"):
+        load_model(tmp_path / "m.json")
+    assert path.exists()
+
+
+def test_the_shipped_model_passes_the_config_checks():
+    from pressurepose.net.checkpoint import read_model_files
+    from pressurepose.net.infer import DEFAULT_MODEL
+
+    config = NetConfig.from_dict(read_model_files(DEFAULT_MODEL)[0]["config"])
+    assert config.inputs.upsample == 2 and config.grid.shape == (64, 27) and len(config.outputs.angle_lower) == 69
+    assert NetConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config

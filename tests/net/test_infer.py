@@ -86,6 +86,43 @@ def test_bad_inputs_are_refused(model_path, tmp_path):
         load_pressure(tmp_path / "p.csv")
 
 
+def _virtual(f, other, shape):
+    layout = h5py.VirtualLayout(shape=shape, dtype="f4")
+    layout[:] = h5py.VirtualSource(str(other), "pressure", shape=shape)
+    f.create_virtual_dataset("pressure", layout)
+
+
+# (case, how the file's 'pressure' is made given (file, the other file, image), what the refusal says)
+BAD_HDF5 = [
+    ("dangling-soft-link", lambda f, o, img: f.__setitem__("pressure", h5py.SoftLink("/nowhere")),
+     r"'pressure' is a soft link to '/nowhere' \(a missing object\)"),
+    ("soft-link", lambda f, o, img: (f.__setitem__("real", img), f.__setitem__("pressure", h5py.SoftLink("/real"))),
+     "'pressure' is a soft link to '/real'"),
+    ("external-link", lambda f, o, img: f.__setitem__("pressure", h5py.ExternalLink(str(o), "/pressure")),
+     "'pressure' is an external link to '/pressure' in .*other.h5"),
+    ("virtual-dataset", lambda f, o, img: _virtual(f, o, img.shape), "virtual dataset mapped from other files"),
+    ("external-storage", lambda f, o, img: f.create_dataset("pressure", shape=img.shape, dtype="f4",
+                                                            external=[(str(o.with_suffix(".bin")), 0, img.nbytes)]),
+     "a dataset whose data lies in other files"),
+    ("group", lambda f, o, img: f.create_group("pressure"), "'pressure' is a group"),
+]
+
+
+@pytest.mark.parametrize("case,build,message", BAD_HDF5, ids=[c[0] for c in BAD_HDF5])
+def test_hdf5_pressure_must_be_stored_in_the_file(tmp_path, case, build, message):
+    """Only data stored in the given file is read: links and virtual or external datasets, which
+    reach into other files (or nowhere), are refused by name."""
+    img = np.ones((2, 16, 16), np.float32)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["pressure"] = img
+    other.with_suffix(".bin").write_bytes(img.tobytes())
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        build(f, other, img)
+    with pytest.raises(BadInput, match=message):
+        load_pressure(tmp_path / "x.h5")
+
+
 def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     data = toy_dataset(2, grid=GRID)
     img = data["pressure"].numpy()
@@ -130,6 +167,11 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     left = sorted(p.name for p in (tmp_path / "a").iterdir())
     assert left == ["estimate.json", "estimate.npz", "estimate_000.png", "mesh_000.ply", "notes.txt", "sites.json",
                     "sites_000.png"]
+    for name in ("mesh_1000.ply", "estimate_1000.png", "sites_1000.png"):  # over 1000 images number with 4 digits
+        (tmp_path / "a" / name).write_text("an earlier run's")
+    assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
+                 "--out", str(tmp_path / "a")]) == 0
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == left
     assert main(["infer", str(tmp_path / "one.csv"), "--model", str(model_path), "--out", str(tmp_path / "d")]) == 2
     # bad input: a clear error and exit status 2
     np.save(tmp_path / "nan.npy", np.full((16, 16), np.nan))
@@ -169,6 +211,32 @@ def test_estimate_warns_as_the_cli_does(model_path):
         estimate(img * 20, "f", model=model_path)
     with pytest.raises(BadInput, match="give its mat"):
         estimate(img, "f", model=model_path, units="raw", weight_kg=70)
+
+
+def test_images_at_or_below_the_contact_floor_are_warned_about(tmp_path, capsys):
+    """A model with a contact floor drops readings at or below it: an image reading nothing above it
+    is an empty mat to the model, which estimate() and infer say (only all-zero mats are refused)."""
+    from pressurepose.net.transforms import InputConfig
+
+    torch.manual_seed(0)
+    body = toy_body()
+    cfg = NetConfig(grid=GRID, outputs=OutputConfig.default((0.5, 1.0, 0.2), (0.3, 0.3, 0.1)),
+                    inputs=InputConfig(contact_floor_mmhg=5.0))
+    path = save_model(tmp_path / "floor.safetensors", PressureNet(cfg, gendered_body(body, body)), (body, body))
+    img = toy_dataset(2, grid=GRID)["pressure"].numpy().copy()
+    img[1] = np.where(img[1] > 0, 1.0, 0.0)  # the body's outline at 1 mmHg
+    with pytest.warns(UserWarning, match=r"image\(s\) 1 read at most 1 mmHg, not above the model's contact floor "
+                                         r"\(5 mmHg\).*sees an empty mat"):
+        estimate(img, "f", model=path)
+    np.save(tmp_path / "faint.npy", img[1:])
+    assert main(["infer", str(tmp_path / "faint.npy"), "--gender", "f", "--model", str(path),
+                 "--out", str(tmp_path / "o"), "--max-figures", "0"]) == 0
+    assert "warning: " in capsys.readouterr().err and (tmp_path / "o" / "estimate.json").exists()
+    import warnings
+
+    with warnings.catch_warnings():  # images above the floor: no such warning
+        warnings.simplefilter("error")
+        estimate(img[:1] * (20 / img[0].max()), "f", model=path)
 
 
 def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_path, capsys):

@@ -412,7 +412,7 @@ def test_settle_presets():
     import argparse
 
     from pressurepose.cli.sim import add_settle_argument
-    from pressurepose.sim.presets import SETTLES
+    from pressurepose.sim.settle_config import SETTLES
     from pressurepose.sim.settle_config import settle_preset
 
     assert settle_preset("relaxed") == SettleConfig()

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.data.realprep import prepare
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, finite_float32
 from pressurepose.mat import MatSpec
 
 # posture labels: 'lateral' = on either side; 'inclined' = recorded on a non-flat bed (not scored);
@@ -16,6 +16,23 @@ from pressurepose.mat import MatSpec
 POSTURE_LABELS = ("supine", "left", "right", "lateral", "prone", "inclined", "")
 FRAME_MODES = ("one", "all")
 LAYOUTS = ("pmd-i", "pmd-ii", "labelled", "recording")
+# the statures and body weights a reader takes as a person's (outside them a value is a typo or in
+# another unit: a height in mm, a weight in g)
+HEIGHT_RANGE_M = (0.5, 2.6)
+WEIGHT_RANGE_KG = (2.0, 400.0)
+
+
+def check_person(height_m: float, weight_kg: float, where: str, height_as_read: str | None = None) -> None:
+    """BadInput naming ``where`` (a file, line and subject) unless the height is within
+    :data:`HEIGHT_RANGE_M` and the weight within :data:`WEIGHT_RANGE_KG` (NaN is neither);
+    ``height_as_read``: the height as the file gives it, with its unit, for the message."""
+    lo, hi = HEIGHT_RANGE_M
+    if not lo <= height_m <= hi:
+        read = f" (read as {height_as_read})" if height_as_read else ""
+        raise BadInput(f"{where}: height {height_m:g} m{read} is not a person's stature; expected {lo}-{hi} m")
+    lo, hi = WEIGHT_RANGE_KG
+    if not lo <= weight_kg <= hi:
+        raise BadInput(f"{where}: weight {weight_kg:g} kg is not a person's body weight; expected {lo:g}-{hi:g} kg")
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,7 +99,8 @@ def make_real(records: list[dict], mat: MatSpec, units: str, layout: str, gain: 
     if not records:
         raise BadInput(f"no images found ({layout} layout)")
     col = lambda k, dt=None: np.array([r[k] for r in records], dtype=dt)  # noqa: E731
-    return RealImages(images=np.stack([r["image"] for r in records]).astype(np.float32), posture=col("posture", str),
+    images = finite_float32(np.stack([r["image"] for r in records]), f"{layout} images")
+    return RealImages(images=images, posture=col("posture", str),
                       detail=col("detail", str), height_m=col("height_m", float), weight_kg=col("weight_kg", float),
                       gender=col("gender", str), subject=col("subject", str), source=col("source", str),
                       frame=col("frame", int), mat=mat, units=units, layout=layout, gain=gain)

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.readers.images import RealImages
+from pressurepose.data.readers.images import RealImages, check_person
 from pressurepose.data.realprep import UNITS
-from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem
+from pressurepose.errors import BadInput, finite_float32
+from pressurepose.files import read_npy
 from pressurepose.mat import MatSpec, custom_mat, get_mat
 
 REQUIRED = ("posture", "height_m", "weight_kg")
@@ -80,7 +80,7 @@ def read_labels(path: str | Path) -> list[dict]:
     if not path.is_file():
         raise BadInput(f"{path} does not exist; expected labels.csv with columns {', '.join(REQUIRED)}")
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:  # Excel's "CSV UTF-8" starts with a BOM
             rows = list(csv.DictReader(fh))
             fields = [f.strip() for f in (rows and rows[0].keys() or [])]
     except (OSError, UnicodeError, csv.Error) as exc:
@@ -101,8 +101,7 @@ def read_labels(path: str | Path) -> list[dict]:
             h, w = float(row["height_m"]), float(row["weight_kg"])
         except ValueError:
             raise BadInput(f"{path} line {k}: height_m and weight_kg must be numbers") from None
-        if not (0.5 < h < 2.6) or not (10 < w < 400):
-            raise BadInput(f"{path} line {k}: height {h} m / weight {w} kg out of range (metres and kg expected)")
+        check_person(h, w, f"{path} line {k}")
         g = row.get("gender", "").lower()[:1]
         if g not in ("", "f", "m"):
             raise BadInput(f"{path} line {k}: gender {row['gender']!r}; expected f or m")
@@ -119,21 +118,18 @@ def read_labelled(folder: str | Path) -> RealImages:
     path = folder / "images.npy"
     if not path.is_file():
         raise BadInput(f"{path} does not exist; expected (N, rows, cols) pressure images")
-    try:
-        images = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise BadInput(f"{path}: not a readable .npy array ({numpy_load_problem(path, exc)})") from None
+    images = read_npy(path, "images")
     if images.dtype.kind not in "fiu" or images.ndim != 3 or images.shape[1:] != mat.shape:
         raise BadInput(f"{path} has shape {images.shape} ({images.dtype}); its mat {mat.name} is {mat.rows} x "
                        f"{mat.cols}, expected numbers of shape (N, {mat.rows}, {mat.cols})")
     if len(images) != len(labels):
         raise BadInput(f"{path} holds {len(images)} images but {folder / 'labels.csv'} has {len(labels)} rows")
-    images = images.astype(np.float64)
-    if not np.all(np.isfinite(images)) or np.any(images < 0):
-        raise BadInput(f"{path}: readings must be finite and >= 0")
+    images = finite_float32(images, str(path))
+    if np.any(images < 0):
+        raise BadInput(f"{path}: readings must be finite and >= 0 (min {images.min():.3g})")
     n = len(labels)
     col = lambda k: np.array([r[k] for r in labels])  # noqa: E731
-    return RealImages(images=images.astype(np.float32), posture=col("posture"), detail=col("posture"),
+    return RealImages(images=images, posture=col("posture"), detail=col("posture"),
                       height_m=col("height_m"), weight_kg=col("weight_kg"), gender=col("gender"),
                       subject=col("subject"), source=np.array([f"{path}[{i}]" for i in range(n)]),
                       frame=np.arange(n), mat=mat, units=units, layout="labelled", gain=gain)

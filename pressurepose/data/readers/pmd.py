@@ -46,9 +46,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.readers.images import RealImages, make_real
+from pressurepose.data.readers.images import RealImages, check_person, make_real
 from pressurepose.data.realprep import combine_frames, orient, valid_frames
-from pressurepose.errors import BadInput
+from pressurepose.errors import FLOAT32_MAX, BadInput
 from pressurepose.mat import get_mat
 
 PMD_I_POSTURES: dict[int, tuple[str, str]] = {
@@ -85,7 +85,11 @@ def read_subject_info(path: str | Path, encoding: str = "utf-8") -> dict[str, di
     """{subject number as str: {'height_m', 'weight_kg', 'gender'}} from a PMD subject file.
 
     Columns are found by name (one containing 'subject', 'height', 'weight', optionally 'sex' or
-    'gender'); heights above 3 are taken as cm. Comma, semicolon or tab separated."""
+    'gender'); the height's unit is the one its header names (m, cm or mm, as in ``Height/cm``),
+    else heights above 3 are taken as cm. Comma, semicolon or tab separated. BadInput naming the
+    file, the line and the subject for a subject that is not a whole number or is listed twice, and
+    for a height or weight outside :data:`~.images.HEIGHT_RANGE_M` / :data:`~.images.WEIGHT_RANGE_KG`
+    (NaN included)."""
     path = Path(path)
     text = _read_text(path, encoding).lstrip("\ufeff")
     lines = [ln for ln in text.splitlines() if ln.strip()]
@@ -104,21 +108,51 @@ def read_subject_info(path: str | Path, encoding: str = "utf-8") -> dict[str, di
         return None
 
     i_s, i_h, i_w, i_g = find("subject"), find("height"), find("weight"), find("sex", "gender", required=False)
-    out = {}
+    unit = re.search(r"(?<![a-z])(mm|cm|m)(?![a-z])", header[i_h])
+    to_m = {"mm": 0.001, "cm": 0.01, "m": 1.0}.get(unit.group(1)) if unit else None
+    out, line_of = {}, {}
     for k, row in enumerate(rows[1:], start=2):
         try:
-            h, w = float(row[i_h]), float(row[i_w])
-            subject = str(int(float(row[i_s])))
+            h, w, s = float(row[i_h]), float(row[i_w]), float(row[i_s])
         except (ValueError, IndexError):
             raise BadInput(f"{path} line {k}: expected numbers for subject, height and weight, got {row}") from None
+        if not (s.is_integer() and s >= 0):
+            raise BadInput(f"{path} line {k}: subject {row[i_s].strip()!r} is not a whole number (the S<n> folders "
+                           f"are numbered by it)")
+        subject = str(int(s))
+        if subject in out:
+            raise BadInput(f"{path} line {k}: subject {subject} is listed again (first on line {line_of[subject]}); "
+                           f"expected one row per subject")
+        height_m = h * (to_m if to_m is not None else (0.01 if h > 3 else 1.0))
+        check_person(height_m, w, f"{path} line {k}, subject {subject}",
+                     f"{row[i_h].strip()} {unit.group(1) if unit else '(unit not named: above 3 read as cm)'}")
         g = row[i_g].strip().lower()[:1] if i_g is not None and i_g < len(row) else ""
-        out[subject] = {"height_m": h / 100.0 if h > 3 else h, "weight_kg": w, "gender": g if g in ("f", "m") else ""}
+        out[subject] = {"height_m": height_m, "weight_kg": w, "gender": g if g in ("f", "m") else ""}
+        line_of[subject] = k
     return out
 
 
 def _subject_folders(root: Path) -> list[tuple[str, Path]]:
-    found = [(p.name[1:], p) for p in root.glob("S*") if p.is_dir() and p.name[1:].isdigit()]
-    return sorted(((str(int(n)), p) for n, p in found), key=lambda t: int(t[0]))
+    """(subject number as str, folder) of every ``S<n>`` folder; BadInput when two folders (``S1``
+    and ``S01``) name the same subject, whose images would be counted twice."""
+    found = sorted(((str(int(p.name[1:])), p) for p in root.glob("S*") if p.is_dir() and p.name[1:].isdigit()),
+                   key=lambda t: (int(t[0]), t[1].name))
+    for (a, pa), (b, pb) in zip(found, found[1:]):
+        if a == b:
+            raise BadInput(f"{root}: folders {pa.name} and {pb.name} are both subject {a}; keep one (its images "
+                           f"would be read twice)")
+    return found
+
+
+def _check_readings(path: Path, line: int, tokens: list[str], values: np.ndarray) -> None:
+    """BadInput naming the file, the line and the reading when one of a line's readings is NaN,
+    infinite, or too large for the float32 images are kept in."""
+    bad = ~np.isfinite(values) | (np.abs(values) > FLOAT32_MAX)
+    if bad.any():
+        j = int(np.argmax(bad))
+        why = "not a finite number" if not np.isfinite(values[j]) else "out of range (too large for float32)"
+        raise BadInput(f"{path} line {line}: reading {j + 1} is {tokens[j]!r}, {why}; expected finite readings "
+                       f"({int(bad.sum())} such on this line)")
 
 
 def read_frame_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
@@ -131,10 +165,12 @@ def read_frame_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
     for k, line in enumerate(_read_text(path).splitlines(), start=1):
         if not line.strip():
             continue
+        tokens = line.split()
         try:
-            values = np.array(line.split(), dtype=np.float64)
+            values = np.array(tokens, dtype=np.float64)
         except ValueError:
             raise BadInput(f"{path} line {k}: not all readings are numbers") from None
+        _check_readings(path, k, tokens, values)
         if values.size != rows * cols:
             raise BadInput(f"{path} line {k} has {values.size} readings; expected {rows * cols} (one {rows} x {cols} "
                            f"frame)")
@@ -187,14 +223,18 @@ def read_image_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
     """One image (rows, cols) from a text file of ``rows`` lines of ``cols`` space-separated readings
     (blank lines skipped), as stored: PMD experiment II's layout."""
     path = Path(path)
-    rows = [ln.split() for ln in _read_text(path).splitlines() if ln.strip()]
-    if len(rows) != shape[0] or any(len(r) != shape[1] for r in rows):
+    lines = [(k, ln.split()) for k, ln in enumerate(_read_text(path).splitlines(), start=1) if ln.strip()]
+    if len(lines) != shape[0] or any(len(r) != shape[1] for _, r in lines):
         raise BadInput(f"{path}: expected {shape[0]} lines of {shape[1]} space-separated readings, got "
-                       f"{len(rows)} lines of {sorted({len(r) for r in rows})} values")
-    try:
-        return np.array(rows, dtype=np.float64)
-    except ValueError:
-        raise BadInput(f"{path}: not all readings are numbers") from None
+                       f"{len(lines)} lines of {sorted({len(r) for _, r in lines})} values")
+    image = np.empty(shape)
+    for i, (k, tokens) in enumerate(lines):
+        try:
+            image[i] = np.array(tokens, dtype=np.float64)
+        except ValueError:
+            raise BadInput(f"{path} line {k}: not all readings are numbers") from None
+        _check_readings(path, k, tokens, image[i])
+    return image
 
 
 def read_pmd_ii_file(path: str | Path) -> np.ndarray:

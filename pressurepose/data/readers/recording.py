@@ -34,7 +34,7 @@ from pressurepose.data.readers.labelled import (
 )
 from pressurepose.data.readers.pmd import read_frame_lines, read_image_lines
 from pressurepose.data.realprep import UNITS, orient, valid_frames
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, finite_float32
 from pressurepose.files import read_npy
 from pressurepose.mat import MATS, MatSpec, get_mat
 
@@ -160,8 +160,9 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
                 if frames.ndim == 3 and frames.shape[1:] == spec.shape[::-1] else "")
         raise BadInput(f"{name} has shape {frames.shape}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
                        f"({spec.rows}, {spec.cols}) or (F, {spec.rows}, {spec.cols}){hint}")
-    if not np.all(np.isfinite(frames)) or np.any(frames < 0):
-        raise BadInput(f"{name}: readings must be finite and >= 0")
+    frames = finite_float32(frames, name)
+    if np.any(frames < 0):
+        raise BadInput(f"{name}: readings must be finite and >= 0 (min {frames.min():.3g})")
     n = len(frames)
     if weight_kg is None:
         weight = np.full(n, np.nan)
@@ -174,7 +175,7 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
         if not np.all(np.isfinite(weight) & (weight > 0)):
             raise BadInput(f"weight {weight_kg!r} is not a positive number of kg")
     empty = lambda value: np.full(n, value)  # noqa: E731
-    return RealImages(images=orient(frames, head_row0=head_row == "first").astype(np.float32), posture=empty(""),
+    return RealImages(images=orient(frames, head_row0=head_row == "first"), posture=empty(""),
                       detail=empty(""), height_m=empty(np.nan), weight_kg=weight, gender=empty(""), subject=empty(""),
                       source=empty(name), frame=np.asarray(index, dtype=int), mat=spec, units=units,
                       layout="recording", gain=None if gain is None else float(gain))

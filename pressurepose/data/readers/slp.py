@@ -21,8 +21,8 @@ from typing import Sequence
 import numpy as np
 
 from pressurepose.data.resample import resample_pressure
-from pressurepose.errors import BadInput
-from pressurepose.files import numpy_load_problem
+from pressurepose.errors import BadInput, finite_float32
+from pressurepose.files import read_npy
 from pressurepose.mat import get_mat
 
 COVERS = ("uncover", "cover1", "cover2")
@@ -49,15 +49,6 @@ class SlpPressure:
     height: np.ndarray
 
 
-def _load_npy(path: Path) -> np.ndarray:
-    try:
-        return np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise BadInput(f"SLP file {path} does not exist") from None
-    except (ValueError, OSError, EOFError) as exc:
-        raise BadInput(f"SLP file {path} is not a readable array ({numpy_load_problem(path, exc)})") from None
-
-
 def list_subjects(root: str | Path) -> list[int]:
     """Subject numbers found under an SLP ``danaLab`` folder."""
     root = Path(root)
@@ -70,7 +61,7 @@ def _physique(root: Path) -> np.ndarray | None:
     path = root / "physiqueData.npy"
     if not path.exists():
         return None
-    arr = np.asarray(_load_npy(path), dtype=np.float64)
+    arr = np.asarray(read_npy(path, "SLP"), dtype=np.float64)
     if arr.ndim != 2 or arr.shape[1] < 3:
         raise BadInput(f"{path} has shape {arr.shape}; expected (subjects, >= 3): gender, height, weight")
     return arr
@@ -94,7 +85,7 @@ def read_slp(root: str | Path, subjects: Sequence[int] | None = None, covers: Se
         folder = root / f"{int(s):05d}"
         cali = None
         if calibrated:
-            cali = np.asarray(_load_npy(folder / "PMcali.npy"), dtype=np.float64)
+            cali = np.asarray(read_npy(folder / "PMcali.npy", "SLP calibration"), dtype=np.float64)
             if cali.ndim != 2 or cali.shape[0] < len(COVERS):
                 raise BadInput(f"{folder / 'PMcali.npy'} has shape {cali.shape}; expected (3, {FRAMES})")
         row = phys[int(s) - 1] if phys is not None and 0 < int(s) <= len(phys) else None
@@ -105,14 +96,12 @@ def read_slp(root: str | Path, subjects: Sequence[int] | None = None, covers: Se
                 path = folder / "PMarray" / c / f"{int(f):06d}.npy"
                 if cali is not None and not 0 < int(f) <= cali.shape[1]:
                     raise BadInput(f"{folder / 'PMcali.npy'} has no factor for frame {f}")
-                img = np.asarray(_load_npy(path), dtype=np.float64)
+                img = np.asarray(read_npy(path, "SLP"), dtype=np.float64)
                 if img.shape != shape:
                     raise BadInput(f"SLP array {path} has shape {img.shape}; the SLP mat is {shape[0]} x {shape[1]}")
-                if not np.all(np.isfinite(img)):
-                    raise BadInput(f"SLP array {path} contains NaN or infinite values")
                 if cali is not None:
                     img = img * cali[COVERS.index(c), int(f) - 1] * KPA_TO_MMHG
-                images.append(img.astype(np.float32))
+                images.append(finite_float32(img, f"SLP array {path}" + (" (calibrated)" if cali is not None else "")))
                 subj.append(int(s))
                 cov.append(c)
                 frm.append(int(f))
