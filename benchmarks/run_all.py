@@ -14,7 +14,7 @@ import sys
 BENCHMARKS = (("bench_body", []), ("bench_sampler", []), ("bench_sampler_fidelity", []), ("bench_press", []),
               ("bench_settle", []), ("bench_settle", ["--agreement", "6", "--seed", "7"]), ("bench_simulate", []),
               ("bench_data", []), ("bench_net", []), ("bench_calibrate", []), ("bench_real", []),
-              ("bench_realism", []), ("bench_real_poses", []))
+              ("bench_realism", []), ("bench_real_poses", []), ("bench_sites", []))
 
 
 def main() -> int:

@@ -29,6 +29,9 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "pack": ("pressurepose.cli.net", "pack",
              "write a dataset's training arrays to one .npz file to copy to a GPU machine (train --data takes it)"),
     "infer": ("pressurepose.cli.net", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
+    "monitor": ("pressurepose.cli.monitor", "monitor",
+                "read a recording over time (a night): posture, turns, pressure per body site, time above a "
+                "threshold, alerts past a repositioning interval (JSON, CSV, PNG)"),
     "evaluate": ("pressurepose.cli.eval", "evaluate", "MPJPE and v2v of a trained PressureNet vs the mean-pose baseline"),
     "evaluate-real": ("pressurepose.cli.eval", "evaluate_real",
                       "score a PressureNet on real pressure images: posture, stature, mass, contact (PMD or labelled folder)"),

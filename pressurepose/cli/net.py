@@ -110,7 +110,9 @@ def run_pack(args) -> int:
 
 def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
-                     "betas, pose, joints (JSON and NPZ), meshes and pictures. Without --mat the images are mmHg "
+                     "betas, pose, joints (JSON and NPZ), meshes and pictures, and the load on each body site "
+                     "under the estimated body (sites.json: peak and mean mmHg, contact area, share of the load; "
+                     "sites_000.png). Without --mat the images are mmHg "
                      "on the model's own mat. With --mat, FILE is a recording from that mat (any size, raw or "
                      "mmHg): its frames are cleaned, put in mmHg and resampled onto the model's mat as "
                      "evaluate-real does (docs/real-mats.md).")
@@ -142,6 +144,18 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
     add_mirror_argument(p)
     add_body_arguments(p)
+
+
+def most_loaded(est, i: int) -> str:
+    """'; most loaded: sacrum (44 %, peak 47 mmHg)' for image i of an estimate with site loads."""
+    from pressurepose.body.sites import SITES
+
+    top = est.sites.most_loaded()[i] if est.sites is not None else ""
+    if not top:
+        return ""
+    k = SITES.index(top)
+    return (f"; most loaded: {top.replace('_', ' ')} ({100 * est.sites.share[i, k]:.0f} %, peak "
+            f"{est.sites.peak_mmhg[i, k]:.0f} mmHg)")
 
 
 def add_mirror_argument(p: argparse.ArgumentParser) -> None:
@@ -228,9 +242,11 @@ def run_infer(args) -> int:
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     from pressurepose.viz.estimate import save_estimate_figures
+    from pressurepose.viz.sites import save_site_figures
 
     paths = est.save(out, mesh_format=args.mesh_format)
     paths += save_estimate_figures(est, out, max_figures=args.max_figures)
+    paths += save_site_figures(est, out, max_figures=args.max_figures)
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else " (the others blank or start-up frames)"
@@ -248,7 +264,7 @@ def run_infer(args) -> int:
         root = est.joints[i, 0]
         name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
         print(f"  {name}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, {mass[i]:.0f} kg, "
-              f"pelvis at x {root[0]:.2f}, y {root[1]:.2f} m")
+              f"pelvis at x {root[0]:.2f}, y {root[1]:.2f} m{most_loaded(est, i)}")
     if len(est) > SHOWN_ESTIMATES:
         print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")
     return 0

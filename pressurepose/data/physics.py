@@ -98,4 +98,5 @@ def physics_producer(config: GenerationConfig, rng: np.random.Generator) -> Samp
     return Sample(pressure=img.pressure, force=img.force, depth=img.depth, contact=img.contact, betas=betas,
                   pose=sim.pose, transl=sim.transl, joints=sim.joints, gender=config.gender, mass=sim.mass,
                   height=sim.height, partition=config.partition,
-                  conditions=None if conditions is None else conditions.as_array())
+                  conditions=None if conditions is None else conditions.as_array(),
+                  sites=None if img.label is None else img.label.astype(np.int8))

@@ -107,7 +107,8 @@ def repress_sample(body, sample: Sample, old: BedSpec, new: BedSpec) -> Sample |
     _, joints = body.forward(betas, pose, transl)
     return dataclasses.replace(sample, pressure=image.pressure, force=image.force, depth=image.depth,
                                contact=image.contact, pose=pose, transl=transl, joints=joints[0],
-                               conditions=None if conditions is None else conditions.as_array())
+                               conditions=None if conditions is None else conditions.as_array(),
+                               sites=image.label.astype(np.int8))
 
 
 def _open_output(out: Path, config: GenerationConfig, provenance: dict) -> Manifest:

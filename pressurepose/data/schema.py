@@ -26,6 +26,10 @@ field          shape / type    meaning
 ``index``      int             sample index within its dataset (set by the pipeline)
 ``conditions`` (7,) float32    only in randomised datasets: the bed the sample was pressed on
                                (``pressurepose.sim.randomize.CONDITION_NAMES``); else None
+``sites``      (R, C) int8     the body site that carried each taxel's force, as an index into
+                               ``pressurepose.body.sites.SITES`` (-1: no body force on the taxel);
+                               None in datasets made before it was recorded and in
+                               samples that were not pressed (the synthetic producer)
 ============== =============== ===========================================================
 
 A dataset on disk is a pure function of its :class:`GenerationConfig`: see ``pipeline.py``.
@@ -95,6 +99,7 @@ class Sample:
     partition: str
     index: int = -1
     conditions: np.ndarray | None = None
+    sites: np.ndarray | None = None
 
     def validate(self, shape: tuple[int, int] | None = None, *, what: str = "sample") -> "Sample":
         """Check shapes, dtypes and finiteness; return self. ``shape`` is the mat's (rows, cols).
@@ -122,6 +127,14 @@ class Sample:
             c = np.asarray(self.conditions, dtype=np.float64)
             if c.shape != (7,) or not np.all(np.isfinite(c)):
                 raise BadInput(f"{what}: conditions has shape {c.shape}; expected 7 finite values")
+        if self.sites is not None:
+            from pressurepose.body.sites import SITES
+
+            s = np.asarray(self.sites)
+            if s.shape != tuple(img_shape) or s.dtype.kind not in "iu" or (s.size and not (
+                    s.min() >= -1 and s.max() < len(SITES))):
+                raise BadInput(f"{what}: sites has shape {s.shape} and dtype {s.dtype}; expected {tuple(img_shape)} "
+                               f"integers from -1 (no body) to {len(SITES) - 1} (indices into the body sites)")
         check_gender(self.gender)
         check_partition(self.partition)
         return self

@@ -136,6 +136,13 @@ def encode_shard(config: GenerationConfig, shard: int, samples: Sequence[Sample]
                                                           for s in samples]))
             f.attrs["condition_names"] = json.dumps(list(CONDITION_NAMES))
             f.attrs["randomization_ranges"] = json.dumps(dataclasses.asdict(RandomizationRanges()))
+        if all(s.sites is not None for s in samples):  # pressed samples: the site under each taxel
+            from pressurepose.body.sites import SITES
+
+            f.create_dataset("sites", data=np.stack([np.asarray(s.sites, dtype=np.int8) for s in samples]),
+                             chunks=(min(n, 64),) + np.shape(samples[0].sites), compression="gzip",
+                             compression_opts=4)
+            f.attrs["site_names"] = json.dumps(list(SITES))
     return buf.getvalue()
 
 
@@ -159,6 +166,12 @@ def read_shard_arrays(path: Path, fields: Sequence[str] | None = None) -> dict[s
             except (OSError, ValueError) as exc:
                 raise BadInput(f"shard {path}: field {name!r} is unreadable ({exc})") from None
             out[name] = arr.astype(str) if arr.dtype.kind == "S" else arr
+        if "sites" in out:
+            from pressurepose.body.sites import SITES
+
+            names = json.loads(f.attrs.get("site_names", "[]"))
+            if names != list(SITES):
+                raise BadInput(f"shard {path} numbers its body sites {names}; this version's are {list(SITES)}")
         return out
 
 
@@ -170,7 +183,8 @@ def samples_from_arrays(arrays: dict[str, np.ndarray]) -> list[Sample]:
                    transl=arrays["transl"][i], joints=arrays["joints"][i], gender=str(arrays["gender"][i]),
                    mass=float(arrays["mass"][i]), height=float(arrays["height"][i]),
                    partition=str(arrays["partition"][i]), index=int(arrays["index"][i]),
-                   conditions=arrays["conditions"][i] if "conditions" in arrays else None)
+                   conditions=arrays["conditions"][i] if "conditions" in arrays else None,
+                   sites=arrays["sites"][i] if "sites" in arrays else None)
             for i in range(n)]
 
 

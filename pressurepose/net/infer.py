@@ -3,7 +3,8 @@
 >>> from pressurepose.net.infer import estimate
 >>> est = estimate(pressure_image, "f", model="runs/x/model.json")   # (64, 27) mmHg on the model's mat
 >>> est.joints.shape, est.vertices.shape                                   # (1, 24, 3), (1, V, 3)
->>> est.save("out/")   # estimate.json, estimate.npz, mesh_000.ply
+>>> est.sites.share.shape                                                    # (1, 16) load per body site
+>>> est.save("out/")   # estimate.json, estimate.npz, sites.json, mesh_000.ply
 >>> est = estimate("S1/1.txt", "m", mat="fsa_softflex_2048", units="raw", weight_kg=87)  # a real recording
 
 A real recording on any mat (``mat=``) is read by
@@ -13,6 +14,7 @@ A real recording on any mat (``mat=``) is read by
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -21,6 +23,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
+from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32
@@ -51,7 +54,12 @@ class Estimate:
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
-    given on the model's mat).
+    given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
+    (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
+    read (about 10 ms a body on one CPU core): :attr:`sites`, the load on each body site under the estimated body
+    (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
+    :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
+    surface (:func:`~pressurepose.body.sites.vertex_pressure`).
     """
 
     betas: np.ndarray
@@ -67,7 +75,9 @@ class Estimate:
     mirror: bool = False
     frame: np.ndarray | None = None
     pmr: PMRConfig = PMRConfig()
+    vertex_site: np.ndarray | None = None
     _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
+    _sites: tuple[SiteLoads, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
 
     def __len__(self) -> int:
         return int(self.betas.shape[0])
@@ -96,10 +106,39 @@ class Estimate:
         return [{**frame[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
+    def _site_loads(self) -> tuple[SiteLoads, np.ndarray] | None:
+        if self._sites is None and self.vertex_site is not None:
+            self._sites = body_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid)
+        return self._sites
+
+    @property
+    def sites(self) -> SiteLoads | None:
+        """The load on each body site under each estimated body (None without ``vertex_site``)."""
+        loads = self._site_loads()
+        return None if loads is None else loads[0]
+
+    @property
+    def vertex_pressure(self) -> np.ndarray | None:
+        """(B, V) mmHg on each body's surface (None without ``vertex_site``)."""
+        loads = self._site_loads()
+        return None if loads is None else loads[1]
+
+    def sites_record(self) -> dict:
+        """The per-site loads as a strict-JSON-ready dict: one entry per image (its frame, the most
+        loaded site and every site's peak_mmhg, mean_mmhg, area_cm2 and share)."""
+        if self.sites is None:
+            raise BadInput("this estimate has no body sites (vertex_site); estimate() gives them")
+        images = []
+        for i, (rec, top) in enumerate(zip(self.sites.to_records(), self.sites.most_loaded())):
+            frame = {} if self.frame is None else {"frame": int(self.frame[i])}
+            images.append({"image": i, **frame, "most_loaded": top or None, "sites": rec})
+        return {"units": "peak and mean mmHg over the site's loaded taxels, contact area cm^2, share of the "
+                         "image's load", "sites": list(SITES), "images": images}
+
     def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
-        """Write estimate.json, estimate.npz and one mesh per image (``mesh_000.ply`` or ``.obj``),
-        removing the numbered meshes an earlier estimate left in ``out_dir``. Returns the paths
-        written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
+        """Write estimate.json, estimate.npz, sites.json (with site loads) and one mesh per image
+        (``mesh_000.ply`` or ``.obj``), removing the numbered meshes an earlier estimate left in
+        ``out_dir``. Returns the paths written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
         import trimesh
 
         if mesh_format not in ("ply", "obj"):
@@ -112,7 +151,12 @@ class Estimate:
         save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
                         vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
                         gender=np.array(self.gender),
-                        **({} if self.frame is None else {"frame": np.asarray(self.frame, dtype=np.int64)}))
+                        **({} if self.frame is None else {"frame": np.asarray(self.frame, dtype=np.int64)}),
+                        **({} if self.sites is None else {"vertex_pressure": self.vertex_pressure.astype(np.float32),
+                                                          "taxel_site": self.sites.taxel_site}))
+        if self.sites is not None:
+            paths.append(out / "sites.json")
+            write_json_atomic(paths[-1], self.sites_record())
         for i in range(len(self)):
             p = out / f"mesh_{i:03d}.{mesh_format}"
             mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
@@ -372,4 +416,18 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
-                    mirror=bool(mirror), frame=frame, pmr=net.config.pmr)
+                    mirror=bool(mirror), frame=frame, pmr=net.config.pmr, vertex_site=vertex_sites_of(net, genders))
+
+
+_VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def vertex_sites_of(net: PressureNet, genders: Sequence[str]) -> np.ndarray:
+    """(B, V) int8 body site (:func:`pressurepose.body.sites.vertex_sites`) of every vertex of the
+    network's body of each image's gender ('f' / 'm'); each body's sites are worked out once."""
+    per = {}
+    for g, layer in zip("fm", (net.body.layers[0], net.body.layers[-1])):
+        if layer not in _VERTEX_SITES:
+            _VERTEX_SITES[layer] = vertex_sites(layer)
+        per[g] = _VERTEX_SITES[layer]
+    return np.stack([per[g] for g in genders]) if len(genders) else np.zeros((0, len(per["f"])), np.int8)

@@ -122,7 +122,7 @@ def lower_surface_map(verts: torch.Tensor, faces: torch.Tensor, grid: MatSpec, c
 
     Each taxel is split into ``ceil(pitch / cell_m)`` cells per side; every triangle is interpolated
     linearly at the cell centres inside its projection (edges included) and the lowest value over a
-    taxel's cells wins (as :func:`pressurepose.sim.raster.lower_surface` and the press read a body),
+    taxel's cells wins (as :func:`pressurepose.body.mesh.lower_surface` and the press read a body),
     so no taxel under the body is left empty however far apart the vertices are. Differentiable in
     the vertices (the choice of cells is not); taxels with no surface over a cell centre hold
     ``empty_value``.

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.body.mesh import lower_surface
 from pressurepose.errors import BadInput
 from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.foundation import (
@@ -38,7 +39,6 @@ from pressurepose.sim.foundation import (
     solve_pasternak,
     solve_winkler,
 )
-from pressurepose.sim.raster import lower_surface
 from pressurepose.sim.sensor import GRAVITY, read_sensor
 from pressurepose.sim.tissue import Bones, tissue_depth
 
@@ -108,6 +108,9 @@ class PressResult:
     com: (3,) the body's centre of mass before the press.
     sink_m: how far the body's lowest point went below the unloaded bed top (positive = sunk).
     iterations: solver iterations used (all passes).
+    label: for a body pressed with ``vertex_label``, (rows, cols) int64: the label of the surface
+        that carried most of each taxel's force (each press cell's force counts for the vertex of
+        the lowest surface nearest the cell's centre), -1 where the body carries nothing; else None.
     """
 
     pressure: np.ndarray
@@ -119,6 +122,7 @@ class PressResult:
     com: np.ndarray
     sink_m: float
     iterations: int
+    label: np.ndarray | None = None
 
     @property
     def shift_m(self) -> float:
@@ -162,18 +166,20 @@ def mesh_centroid(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, np.nd
 class Heightfield:
     """A body's lower surface on the press grid of a bed: ``bottom`` (ny, nx) heights (m,
     ``+inf`` where no body), its centre of mass ``com`` (3,) and, for a body with soft tissue,
-    ``tissue`` (ny, nx) the tissue's depth over the bone (m, 0 where no body; None: rigid). Depends
-    only on the geometry of the bed (mat, mattress, press_cell_m), not on its stiffness or sensor
-    constants."""
+    ``tissue`` (ny, nx) the tissue's depth over the bone (m, 0 where no body; None: rigid);
+    ``label`` (ny, nx) int64 the label of the surface over each cell (-1 where no body; None: not
+    labelled). Depends only on the geometry of the bed (mat, mattress, press_cell_m), not on its
+    stiffness or sensor constants."""
 
     bottom: np.ndarray
     com: np.ndarray
     grid: PressGrid
     tissue: np.ndarray | None = None
+    label: np.ndarray | None = None
 
 
 def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None,
-                     bones: Bones | None = None) -> Heightfield:
+                     bones: Bones | None = None, vertex_label=None) -> Heightfield:
     """Sample a closed mesh's lower surface on the press grid of ``bed``.
 
     vertices (V, 3) bed frame, metres; faces (F, 3) int, a closed surface (either winding).
@@ -181,10 +187,13 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
     Surface deeper than the mattress's bottom (``-bed.mattress_thickness_m``) is beside the
     mattress (a limb hanging over its edge) and is left out: the cells over it read the body's
     lowest surface above that depth, or nothing. ``bones`` (same frame): the body has soft tissue
-    over them (:mod:`pressurepose.sim.tissue`); None: the body is rigid.
+    over them (:mod:`pressurepose.sim.tissue`); None: the body is rigid. ``vertex_label`` (V,)
+    ints >= 0 (e.g. :func:`pressurepose.body.sites.vertex_sites`): each cell gets the label of the
+    vertex of the lowest surface nearest its centre.
     """
     bed = _check_bed(bed)
     verts, tris = _check_mesh(vertices, faces)
+    labels = _check_labels(vertex_label, len(verts))
     volume, com = mesh_centroid(verts, tris)
     if abs(volume) < 1e-12:
         raise BadInput("the mesh encloses no volume; faces must form a closed surface")
@@ -198,8 +207,10 @@ def body_heightfield(vertices, faces, bed: BedSpec | None = None, *, com_xy=None
     normal_z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     down = tris[normal_z * np.sign(volume) < 0]
     grid = press_grid(bed)
-    bottom = lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape, floor=-bed.mattress_thickness_m)
-    return with_tissue(Heightfield(bottom, com, grid), bones)
+    bottom, nearest = lower_surface(verts, down, grid.origin_xy, grid.cell_xy, grid.shape,
+                                    floor=-bed.mattress_thickness_m, return_vertex=True)
+    label = None if labels is None else np.where(nearest >= 0, labels[nearest], -1)
+    return with_tissue(Heightfield(bottom, com, grid, label=label), bones)
 
 
 def with_tissue(hf: Heightfield, bones: Bones | None) -> Heightfield:
@@ -217,7 +228,7 @@ def with_tissue(hf: Heightfield, bones: Bones | None) -> Heightfield:
 
 def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy=None,
           bones: Bones | None = None, margin_m: float | None = None, tol: float = 1e-7,
-          max_linear_tilt: float = 0.01, max_passes: int = 4) -> PressResult:
+          max_linear_tilt: float = 0.01, max_passes: int = 4, vertex_label=None) -> PressResult:
     """Rest a body mesh (rigid, or with soft tissue over its bones) on the bed and read the mat.
 
     vertices (V, 3) bed frame, metres, at the body's resting height or above it (the press finds
@@ -229,7 +240,9 @@ def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy
     ``bed.tissue_modulus_pa``); None presses a rigid body. ``margin_m``: the Pasternak
     foundation is solved on the part of the bed within this distance of the body (default
     ``max(0.15, 6 sqrt(G / k_A))``, where a dent has faded to < 0.3 %); ``tol``: the solver stops
-    when the forces change by less than ``tol`` m g in an iteration.
+    when the forces change by less than ``tol`` m g in an iteration. ``vertex_label`` (V,) ints >= 0:
+    the result's ``label`` says which label carried each taxel's force (e.g. the body sites of
+    :func:`pressurepose.body.sites.vertex_sites`).
 
     The contact solve treats the tilt to first order (heights change by slope . (xy - com));
     while it asks for more than ``max_linear_tilt`` rad, the mesh is turned by it about its
@@ -243,7 +256,8 @@ def press(vertices, faces, mass_kg: float, bed: BedSpec | None = None, *, com_xy
     iterations = 0
     for n in range(1, max_passes + 1):
         moved = verts @ turned[:3, :3].T + turned[:3, 3]
-        hf = body_heightfield(moved, tris, bed, com_xy=com_xy, bones=None if bones is None else bones.moved(turned))
+        hf = body_heightfield(moved, tris, bed, com_xy=com_xy, bones=None if bones is None else bones.moved(turned),
+                              vertex_label=vertex_label)
         res = press_heightfield(hf, mass_kg, bed, margin_m=margin_m, tol=tol)
         iterations += res.iterations
         total = res.transform @ turned
@@ -316,7 +330,28 @@ def press_heightfield(hf: Heightfield, mass_kg: float, bed: BedSpec, *, margin_m
         com=com.copy(),
         sink_m=sink,
         iterations=iterations,
+        label=None if hf.label is None else _taxel_label(lam, hf.label, grid)[sl],
     )
+
+
+def _taxel_label(cell_force: np.ndarray, cell_label: np.ndarray, grid: PressGrid) -> np.ndarray:
+    """(rows, cols) over the full taxel grid: the label whose cells carry most of each taxel's force
+    (``cell_force`` and ``cell_label`` (ny, nx)); -1 where no labelled cell carries any."""
+    sr, sc = grid.sub
+    ny, nx = grid.shape
+    rows, cols = ny // sr, nx // sc
+    on = (cell_force > 0) & (cell_label >= 0)
+    out = np.full(rows * cols, -1, dtype=np.int64)
+    if not on.any():
+        return out.reshape(rows, cols)
+    jj, ii = np.nonzero(on)
+    n_labels = int(cell_label[on].max()) + 1
+    taxel = (jj // sr) * cols + ii // sc
+    sums = np.bincount(taxel * n_labels + cell_label[on], weights=cell_force[on],
+                       minlength=rows * cols * n_labels).reshape(rows * cols, n_labels)
+    carried = sums.max(axis=1) > 0
+    out[carried] = np.argmax(sums[carried], axis=1)
+    return out.reshape(rows, cols)
 
 
 def _contact_solve(b0: np.ndarray, com: np.ndarray, grid: PressGrid, bed: BedSpec, weight: float,
@@ -396,6 +431,16 @@ def _smooth(m: int) -> bool:
         while m % p == 0:
             m //= p
     return m == 1
+
+
+def _check_labels(vertex_label, n_vertices: int) -> np.ndarray | None:
+    if vertex_label is None:
+        return None
+    lab = np.asarray(vertex_label)
+    if lab.shape != (n_vertices,) or lab.dtype.kind not in "iu" or (lab.size and lab.min() < 0):
+        raise BadInput(f"vertex_label has shape {lab.shape} and dtype {lab.dtype}; expected ({n_vertices},) "
+                       f"integers >= 0, one per vertex")
+    return lab.astype(np.int64)
 
 
 def _check_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:

@@ -100,14 +100,17 @@ def apply_rigid_motion(body, betas: np.ndarray, pose: np.ndarray, transl: np.nda
 def press_at(body, betas, pose, transl, mass_kg: float, bed, *, verts=None, com_xy=None):
     """The :class:`~pressurepose.sim.press.PressResult` of the body at (betas (S,), pose (72,),
     transl (3,)) pressed into ``bed`` with its soft tissue (bones from the pose, fractions from the
-    bed). verts: (1, V, 3) the mesh at that pose, if already computed; com_xy: as ``press``'s."""
+    bed), its ``label`` the body site (:data:`pressurepose.body.sites.SITES`) that carried each
+    taxel's force. verts: (1, V, 3) the mesh at that pose, if already computed; com_xy: as ``press``'s."""
+    from pressurepose.body.sites import vertex_sites
     from pressurepose.sim.press import press
     from pressurepose.sim.tissue import body_bones
 
     if verts is None:
         verts, _ = body.forward(betas, pose, transl)
     return press(verts[0], body.faces, mass_kg, bed, com_xy=com_xy,
-                 bones=body_bones(body, betas, pose, transl, bed.tissue_bone_fraction))
+                 bones=body_bones(body, betas, pose, transl, bed.tissue_bone_fraction),
+                 vertex_label=vertex_sites(body))
 
 
 def limb_off_bed(joints: np.ndarray, bed) -> bool:

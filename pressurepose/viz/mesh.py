@@ -31,7 +31,8 @@ def view_axes(view: str):
 
 def draw_mesh(ax, verts: np.ndarray, faces: np.ndarray, view: str = "front", color=(0.55, 0.7, 0.9),
               alpha: float = 1.0) -> None:
-    """Draw a mesh (verts (V, 3) metres, faces (F, 3)) on a 2D matplotlib axis in the given view."""
+    """Draw a mesh (verts (V, 3) metres, faces (F, 3)) on a 2D matplotlib axis in the given view;
+    ``color`` one RGB for the whole mesh or (F, 3) one per face."""
     from matplotlib.collections import PolyCollection
 
     right, up, toward = view_axes(view)
@@ -47,7 +48,9 @@ def draw_mesh(ax, verts: np.ndarray, faces: np.ndarray, view: str = "front", col
     shade = 0.35 + 0.65 * np.clip(n[keep] @ light, 0, 1)
     order = np.argsort(depth[faces[keep]].mean(1))
     polys = p2[faces[keep]][order]
-    colors = np.clip(np.asarray(color)[None] * shade[order, None], 0, 1)
+    base = np.asarray(color, dtype=np.float64)
+    base = base[keep][order] if base.ndim == 2 else base[None]
+    colors = np.clip(base * shade[order, None], 0, 1)
     ax.add_collection(PolyCollection(polys, facecolors=colors, edgecolors="none", alpha=alpha))
     ax.set_aspect("equal")
     ax.update_datalim(p2)

@@ -48,6 +48,8 @@ def test_one_physics_sample_balances_its_weight():
     # where the mat reads contact the body is below the unloaded bed top, and over its lowest point
     assert s.depth[s.contact].max() < 0
     assert v[0, :, 2].min() == pytest.approx(s.depth.min(), abs=0.02)
+    # every taxel the body loads names the body site that carries it; the others none
+    np.testing.assert_array_equal(s.sites >= 0, s.force > 0)
 
 
 def test_manifest_records_the_physics_constants_and_a_resume_under_others_is_refused(tmp_path, monkeypatch):

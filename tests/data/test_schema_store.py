@@ -65,6 +65,39 @@ def test_sample_validate_names_the_bad_field():
         Sample(**{**good, "pressure": -np.ones((64, 27))}).validate((64, 27))
 
 
+def test_taxel_sites_round_trip_and_a_shard_without_them_still_reads(tmp_path):
+    import h5py
+
+    from pressurepose.body.sites import SITES
+    from pressurepose.data.store import encode_shard, read_shard_arrays, samples_from_arrays
+
+    z = np.zeros((64, 27), np.float32)
+    sites = np.full((64, 27), -1, np.int8)
+    sites[3:6, 10:14] = SITES.index("head")
+    sites[30:36, 8:18] = SITES.index("sacrum")
+    good = dict(pressure=z, force=z, depth=z, contact=z > 0, betas=np.zeros(10), pose=np.zeros(72),
+                transl=np.zeros(3), joints=np.zeros((24, 3)), gender="f", mass=60.0, height=1.6,
+                partition="general")
+    config = small_config()
+    for with_sites in (True, False):
+        sample = Sample(**good, index=0, sites=sites if with_sites else None).validate((64, 27))
+        path = tmp_path / f"shard-{with_sites}.h5"
+        path.write_bytes(encode_shard(config, 0, [sample], [1], {}))
+        back = samples_from_arrays(read_shard_arrays(path))[0]
+        if with_sites:
+            np.testing.assert_array_equal(back.sites, sites)
+        else:
+            assert back.sites is None  # made before sites were recorded: the field is absent
+    with pytest.raises(BadInput, match="sites has shape"):
+        Sample(**good, sites=np.full((64, 27), len(SITES), np.int8)).validate((64, 27))
+    with pytest.raises(BadInput, match="sites has shape"):
+        Sample(**good, sites=sites[:10]).validate((64, 27))
+    with h5py.File(tmp_path / "shard-True.h5", "a") as f:  # numbered by another list of sites
+        f.attrs["site_names"] = json.dumps(list(reversed(SITES)))
+    with pytest.raises(BadInput, match="numbers its body sites"):
+        read_shard_arrays(tmp_path / "shard-True.h5")
+
+
 def test_partial_temp_file_is_never_taken_for_a_shard(tmp_path):
     c = small_config(count=12, shard_size=6)
     out = tmp_path / "d"

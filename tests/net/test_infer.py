@@ -41,6 +41,30 @@ def test_estimate_one_image_and_a_batch(model_path):
     np.testing.assert_allclose(batch.joints[0], one.joints[0], atol=1e-5)
 
 
+def test_estimate_splits_each_image_over_the_body_sites_under_its_body(model_path, tmp_path):
+    from pressurepose.body.sites import NO_SITE, SITES, site_loads, vertex_sites
+
+    data = toy_dataset(3, grid=GRID)
+    est = estimate(data["pressure"], ["f", "m", "f"], model=model_path)
+    p = est.pressure
+    np.testing.assert_array_equal(est.sites.taxel_site != NO_SITE, p > 0)  # every loaded taxel, and only those
+    np.testing.assert_allclose(est.sites.share.sum(1), 1.0)
+    again = site_loads(p, est.vertices, est.faces, vertex_sites(toy_body()), GRID)  # the body's own sites, recomputed
+    np.testing.assert_allclose(est.sites.share, again.share)
+    np.testing.assert_allclose(est.sites.peak_mmhg.max(1), p.reshape(3, -1).max(1))
+    assert est.vertex_pressure.shape == (3, 192) and est.vertex_pressure.max() <= p.max()
+    assert dataclasses.replace(est, vertex_site=None).sites is None
+    est.save(tmp_path)
+    rec = json.loads((tmp_path / "sites.json").read_text())
+    assert rec["sites"] == list(SITES) and len(rec["images"]) == 3
+    assert rec["images"][1]["most_loaded"] == est.sites.most_loaded()[1]
+    assert set(rec["images"][0]["sites"]) == set(SITES)
+    assert sum(v["share"] for v in rec["images"][2]["sites"].values()) == pytest.approx(1.0, abs=1e-3)
+    npz = np.load(tmp_path / "estimate.npz")
+    np.testing.assert_allclose(npz["vertex_pressure"], est.vertex_pressure, rtol=1e-6)
+    np.testing.assert_array_equal(npz["taxel_site"], est.sites.taxel_site)
+
+
 def test_bad_inputs_are_refused(model_path, tmp_path):
     good = np.zeros((16, 16), np.float32)
     for bad, match in [(np.zeros((15, 16)), "shape"), (np.zeros((2, 3, 16, 16)), "shape"),
@@ -141,8 +165,9 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
                  "--out", str(tmp_path / "a")]) == 0
     left = sorted(p.name for p in (tmp_path / "a").iterdir())
-    assert left == ["estimate.json", "estimate.npz", "estimate_000.png", "mesh_000.ply", "notes.txt"]
-    for name in ("mesh_1000.ply", "estimate_1000.png"):  # a run of over 1000 images numbers with 4 digits
+    assert left == ["estimate.json", "estimate.npz", "estimate_000.png", "mesh_000.ply", "notes.txt", "sites.json",
+                    "sites_000.png"]
+    for name in ("mesh_1000.ply", "estimate_1000.png", "sites_1000.png"):  # over 1000 images number with 4 digits
         (tmp_path / "a" / name).write_text("an earlier run's")
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
                  "--out", str(tmp_path / "a")]) == 0
@@ -237,7 +262,8 @@ def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_
     saved = json.loads((out / "estimate.json").read_text())["estimates"]
     assert [r["frame"] for r in saved] == list(range(7))
     np.testing.assert_allclose([r["joints"] for r in saved], est.joints, atol=1e-5)
-    assert sorted(p.name for p in out.glob("*.png")) == ["estimate_000.png", "estimate_001.png"]
+    assert sorted(p.name for p in out.glob("*.png")) == ["estimate_000.png", "estimate_001.png", "sites_000.png",
+                                                         "sites_001.png"]
     # without a weight or a gain, with --units but no --mat, or --mat without --units: a clear error
     for extra, said in ((["--mat", "boditrak_bt3510", "--units", "raw"], "weight (kg) or a calibration gain"),
                         (["--units", "raw", "--weight-kg", "70"], "give --mat too"),

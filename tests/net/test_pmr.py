@@ -3,6 +3,7 @@ import math
 import numpy as np
 import torch
 
+from pressurepose.body.mesh import lower_surface
 from pressurepose.mat import MatSpec, custom_mat
 from pressurepose.net.pmr import (
     PMRConfig,
@@ -12,7 +13,6 @@ from pressurepose.net.pmr import (
     sink_depth,
     surface_maps,
 )
-from pressurepose.sim.raster import lower_surface
 
 torch.set_num_threads(1)
 

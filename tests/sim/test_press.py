@@ -8,11 +8,11 @@ import scipy.optimize
 import trimesh
 from matplotlib.path import Path
 
+from pressurepose.body.mesh import lower_surface
 from pressurepose.body.model import asset_path
 from pressurepose.errors import BadInput
 from pressurepose.sim import DEPTH_EMPTY_M, GRAVITY, PressFailed, get_bed, press
 from pressurepose.sim.press import mesh_centroid, press_grid
-from pressurepose.sim.raster import lower_surface
 
 K_A = 6e4
 
@@ -400,3 +400,51 @@ def test_supine_and_prone_bodies_touch_where_anatomy_says():
     assert on_back("left_hip") > 1.5 * on_front("left_hip")
     assert on_front("spine2") > 2 * on_back("spine2")
     assert on_front("left_foot") > 0.02 * weight > 100 * on_back("left_foot")  # toes point up when supine
+
+
+# ------------------------------------------------------------------ which surface carries each taxel
+def test_raster_names_the_vertex_of_the_lowest_surface_nearest_each_cell():
+    grid_shape, origin, cell = (10, 10), (0.0, 0.0), (0.01, 0.01)
+    low = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]]
+    v = np.array(low + [[x, y, 0.05] for x, y, _ in low])  # the same triangle 5 cm higher
+    h, nearest = lower_surface(v, np.array([[3, 4, 5], [0, 1, 2]]), origin, cell, grid_shape, return_vertex=True)
+    assert nearest[0, 0] == 0 and nearest[0, 8] == 1 and nearest[8, 0] == 2  # corners of the lower one
+    np.testing.assert_array_equal(nearest >= 0, np.isfinite(h))
+    assert nearest[9, 9] == -1
+
+
+def test_press_labels_each_taxel_with_the_surface_that_carries_its_force():
+    bed = get_bed(stiffness_n_m3=K_A, coupling_n_m=60.0)
+    grid = press_grid(bed)
+    r0, c0 = 3 * (bed.full_grid.row0 + 20), 3 * (bed.full_grid.col0 + 5)  # whole taxels of the sensing area
+    a, b = box_on_cells(grid, c0, r0, 6, 9), box_on_cells(grid, c0 + 6, r0, 9, 9)
+    verts = np.vstack([a.vertices, b.vertices])
+    faces = np.vstack([a.faces, b.faces + len(a.vertices)])
+    labels = np.r_[np.full(len(a.vertices), 3), np.full(len(b.vertices), 7)]
+    res = press(verts, faces, 20.0, bed, vertex_label=labels)
+    assert res.label.shape == res.force.shape
+    np.testing.assert_array_equal(res.label >= 0, res.force > 0)
+    assert (res.label[20:23, 5:7] == 3).all() and (res.label[20:23, 7:10] == 7).all()
+    assert press(verts, faces, 20.0, bed).label is None
+    with pytest.raises(BadInput, match="vertex_label"):
+        press(verts, faces, 20.0, bed, vertex_label=labels[:-1])
+
+
+@pytest.mark.skipif(not asset_path("female.npz").is_file(), reason="the shipped female body model is not baked")
+def test_a_pressed_body_labels_the_taxels_under_its_head_head():
+    from pressurepose.body import BodyModel
+    from pressurepose.body.joints import JOINT_NAMES
+    from pressurepose.body.sites import SITES, vertex_sites
+    from pressurepose.calibrate.objects import supine_body_mesh
+
+    bed = get_bed()
+    body = BodyModel("female")
+    v, f, joints = supine_body_mesh(body, bed)
+    res = press(v, f, 62.5, bed, vertex_label=vertex_sites(body))
+    d = np.linalg.norm(bed.taxel_centers() - joints[JOINT_NAMES.index("head"), :2], axis=-1)
+    under_head = (d < 0.05) & (res.force > 0)
+    assert under_head.any() and (res.label[under_head] == SITES.index("head")).all()
+    d = np.linalg.norm(bed.taxel_centers() - joints[JOINT_NAMES.index("pelvis"), :2], axis=-1)
+    assert (res.label[(d < 0.05) & (res.force > 0)] == SITES.index("sacrum")).all()
+    carried = {SITES[k]: res.force[res.label == k].sum() for k in range(len(SITES))}
+    assert carried["sacrum"] + carried["scapulae"] > 0.3 * res.force.sum()

@@ -1,0 +1,77 @@
+"""The picture of a night on the mat: posture over time with the turns, the body's roll, and the
+peak pressure of the body sites against the threshold, alerts shaded."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pressurepose.body.sites import SITES
+from pressurepose.eval.monitor import EMPTY, Timeline
+
+POSTURE_COLORS = {"supine": "tab:blue", "left": "tab:green", "prone": "tab:purple", "right": "tab:orange",
+                  EMPTY: "0.85"}
+SHOWN_SITES = 6  # site lines drawn: those longest above the threshold, then the most loaded
+
+
+def _time_axis(times_s: np.ndarray) -> tuple[np.ndarray, str]:
+    span = float(times_s[-1] - times_s[0]) if len(times_s) else 0.0
+    if span >= 2 * 3600:
+        return times_s / 3600.0, "hours"
+    if span >= 120:
+        return times_s / 60.0, "minutes"
+    return times_s, "seconds"
+
+
+def night_figure(tl: Timeline):
+    """A matplotlib figure of a :class:`~pressurepose.eval.monitor.Timeline`: posture band with the
+    turns marked, roll angle, and the peak pressure of the sites that were longest above the
+    threshold (or the most loaded), the threshold dashed and each alert shaded from when the
+    repositioning interval ran out to when the site was relieved."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    t, unit = _time_axis(tl.times_s)
+    scale = float(t[-1] / tl.times_s[-1]) if len(t) and tl.times_s[-1] > 0 else 1.0
+    fig, axes = plt.subplots(3, 1, figsize=(13, 8), sharex=True, gridspec_kw={"height_ratios": [0.5, 1.2, 2.4]})
+    ax = axes[0]
+    cut = np.flatnonzero(tl.posture[1:] != tl.posture[:-1]) + 1
+    end = t[-1] + (t[-1] - t[-2] if len(t) > 1 else 1.0)
+    for s, e in zip(np.r_[0, cut], np.r_[cut, len(t)]):
+        right = t[e] if e < len(t) else end
+        ax.axvspan(t[s], right, color=POSTURE_COLORS.get(str(tl.posture[s]), "0.5"), lw=0)
+    ax.set_yticks([])
+    ax.set_title(f"posture ({len(tl.turns)} turns; the network read {int(tl.estimated.sum())} of {len(tl)} frames)")
+    ax.legend(handles=[Patch(color=c, label=p) for p, c in POSTURE_COLORS.items()
+                       if p in set(tl.posture.tolist())], loc="upper right", ncol=5, fontsize=8)
+    ax = axes[1]
+    ax.plot(t, tl.roll_deg, lw=0.8, color="0.2")
+    for b in (-135, -45, 45, 135):
+        ax.axhline(b, color="0.8", lw=0.6)
+    ax.set_ylim(-185, 185)
+    ax.set_yticks([-180, -90, 0, 90, 180])
+    ax.set_ylabel("roll (deg)\n0 supine, +90 left")
+    for turn in tl.turns:
+        for a in axes:
+            a.axvline(turn.time_s * scale, color="k", ls=":", lw=1)
+        axes[1].text(turn.time_s * scale, 170, f" {turn.after}", fontsize=7, va="top")
+    ax = axes[2]
+    order = sorted(range(len(SITES)), key=lambda k: (tl.above_s[SITES[k]], tl.share[:, k].mean()), reverse=True)
+    shown = [k for k in order if SITES[k] != "other" and tl.peak_mmhg[:, k].max() > 0][:SHOWN_SITES]
+    for k in shown:
+        ax.plot(t, tl.peak_mmhg[:, k], lw=0.9, label=SITES[k].replace("_", " "))
+    ax.axhline(tl.config.threshold_mmhg, color="k", ls="--", lw=1, label=f"{tl.config.threshold_mmhg:g} mmHg")
+    top = ax.get_ylim()[1]
+    for n, alert in enumerate(tl.alerts):
+        ax.axvspan(alert.due_s * scale, alert.end_s * scale, color="tab:red", alpha=0.15, lw=0)
+        ax.text(alert.due_s * scale, top * (1 - 0.06 * (n % 5)), f" {alert.site.replace('_', ' ')}", color="tab:red",
+                fontsize=7, va="top")
+    ax.set_ylabel("peak pressure (mmHg)")
+    ax.set_xlabel(f"time ({unit})")
+    ax.legend(loc="upper right", fontsize=8, ncol=4)
+    ax.set_title(f"body sites; red: loaded above {tl.config.threshold_mmhg:g} mmHg for longer than "
+                 f"{tl.config.reposition_s / 3600:g} h ({len(tl.alerts)} alerts)")
+    fig.tight_layout()
+    return fig
