@@ -108,6 +108,7 @@ def run_evaluate_real(args) -> int:
     from pressurepose.data.readers.real import read_real
     from pressurepose.errors import BadInput
     from pressurepose.eval.real import (
+        WEDGE_TURN_DEG,
         RealEvalConfig,
         evaluate_real,
         format_confusion,
@@ -155,8 +156,21 @@ def run_evaluate_real(args) -> int:
                 f"{corr}), mass MAE {s['mass_mae_kg']:.1f} kg "
                 f"(bias {s['mass_bias_kg']:+.1f} kg), contact IoU {s['contact_iou']:.2f}")
     if s.get("without_wedge") and s["without_wedge"]["posture_accuracy"] is not None:
-        headline += (f"\n(without the wedge postures, bodies turned 30-60 degrees and propped: posture accuracy "
-                     f"{s['without_wedge']['posture_accuracy']:.2f} over {s['without_wedge']['n']} estimates)")
+        by = ", ".join(f"{g} {a:.2f}" for g, a in s["flat_bed_by_posture"].items())
+        headline += (f"\nflat bed: posture accuracy {s['without_wedge']['posture_accuracy']:.2f} over "
+                     f"{s['without_wedge']['n']} estimates ({by})")
+    if s.get("wedge"):
+        w = s["wedge"]
+        turns = ", ".join(f"{a} deg: {t:+.0f}" if a != "unknown" else f"{t:+.0f}"
+                          for a, t in w["median_turn_deg"].items())
+        headline += (f"\npropped on a wedge: {w['turned_right_way']:.2f} of {w['n']} estimates turn at least "
+                     f"{WEDGE_TURN_DEG:.0f} degrees toward the labelled side (median turn toward it by wedge, {turns})")
+    if s.get("taller_than_mat"):
+        headline += (f"\nstature: {s['taller_than_mat']:.0%} of the people are taller than the mat is long "
+                     f"({s['mat_length_m']:.2f} m): their images cannot show the whole body")
+    if s.get("load_kg_mean") is not None and s.get("weight_kg_mean") is not None:
+        headline += (f"\nmass: the images carry {s['load_kg_mean']:.1f} kg on average; the people weigh "
+                     f"{s['weight_kg_mean']:.1f} kg")
     report = (f"# PressureNet on real images\n\nmodel: {args.model or 'shipped'}\n\n{headline}\n\n"
               f"## By posture\n\n{format_real_table(s)}\n\n## By posture label\n\n"
               f"{format_real_table(s, 'per_posture')}\n\n## By body model\n\n{format_real_table(s, 'by_body_model')}"

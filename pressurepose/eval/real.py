@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pressurepose.data.readers.images import RealImages
+from pressurepose.data.resample import MMHG_PA
 from pressurepose.errors import BadInput
 from pressurepose.eval.posture import (
     body_stature_mass,
@@ -38,6 +39,10 @@ if TYPE_CHECKING:
     from pressurepose.net.infer import Estimate
 
 GENDER_CHOICES = ("f", "m", "both")
+# a body on a wedge (turned 30-60 degrees toward a known side) is read right when its estimate turns at
+# least this far toward that side: a turn the posture classes, split at 45 degrees, cannot score
+WEDGE_TURN_DEG = 15.0
+GRAVITY = 9.80665
 
 
 @dataclass(frozen=True)
@@ -165,7 +170,9 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
             "stature_m": h, "height_m": r.height_m[idx],
             "stature_err_m": h - r.height_m[idx], "mass_kg": m, "weight_kg": r.weight_kg[idx],
             "mass_err_kg": m - r.weight_kg[idx],
-            "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg)}
+            "contact_iou": contact_iou(est.contact > 0.5, x[idx] > contact_mmhg),
+            "load_kg": x[idx].sum((1, 2)) * MMHG_PA * net.config.grid.taxel_area_m2 / GRAVITY,
+            "mat_length_m": np.full(len(idx), real.mat.length_m)}
     return RealEvaluation(rows=rows, estimate=est, input=x[idx], summary=summarise(rows), skipped=skipped,
                           n_images=len(r), contact_mmhg=contact_mmhg, layout=real.layout, mat=real.mat,
                           units=real.units, gain=real.gain)
@@ -199,12 +206,58 @@ def _stats(rows: dict, sel: np.ndarray) -> dict:
             "contact_iou": float(rows["contact_iou"][sel].mean())}
 
 
+def turn_toward_label(label, roll_deg) -> np.ndarray:
+    """(N,) degrees the estimated body turns toward the side its label names: the roll for 'left'
+    (left side down at +90), minus the roll for 'right', its size for 'lateral' (either side); NaN for
+    other labels."""
+    lab, roll = np.asarray(label, dtype=str), np.asarray(roll_deg, dtype=np.float64)
+    return np.where(lab == "left", roll, np.where(lab == "right", -roll,
+                                                  np.where(lab == "lateral", np.abs(roll), np.nan)))
+
+
+def wedge_angle(detail: str) -> str:
+    """The wedge's turn named in a source posture ('right 30 deg (wedge)' -> '30'), '' if none."""
+    words = str(detail).split()
+    return next((w for w, nxt in zip(words, words[1:]) if nxt.startswith("deg") and w.isdigit()), "")
+
+
+def _wedge_stats(rows: dict, sel: np.ndarray) -> dict | None:
+    """Wedge postures among ``sel``: how many turn the right way (:data:`WEDGE_TURN_DEG`) and the
+    median turn toward the labelled side by the wedge's angle; None without wedge postures."""
+    sel = sel & is_wedge(rows["detail"]) & np.isin(rows["posture"], ("left", "right", "lateral"))
+    if not sel.any():
+        return None
+    turn = turn_toward_label(rows["posture"][sel], rows["roll_deg"][sel])
+    angles = np.array([wedge_angle(d) for d in rows["detail"][sel]])
+    return {"n": int(sel.sum()), "turned_right_way": float(np.mean(turn >= WEDGE_TURN_DEG)),
+            "median_turn_deg": {a or "unknown": float(np.median(turn[angles == a]))
+                                for a in sorted(set(angles.tolist()), key=lambda a: (len(a), a))}}
+
+
 def summarise(rows: dict) -> dict:
     """Overall scores (stature_r: correlation of estimated stature with measured height), per subject,
     per posture label, per source posture name, per body model and the posture confusion matrix
-    ({label: {predicted: count}}, scored estimates only)."""
+    ({label: {predicted: count}}, scored estimates only).
+
+    As the postures are labelled: ``without_wedge`` scores the postures on a flat bed by class
+    (supine, side-lying, prone), ``wedge`` the bodies propped on a wedge by the direction of their
+    turn (:func:`_wedge_stats`), both overall and per subject. Stature: ``taller_than_mat`` is the share
+    of people taller than the mat is long (their image cannot show the whole body). Mass: the mean
+    load the model input carries (``load_kg_mean``) beside the measured weight and the estimate."""
     n = len(rows["image"])
     out = _stats(rows, np.ones(n, bool))
+    flat = ~is_wedge(rows["detail"])
+    out["wedge"] = _wedge_stats(rows, np.ones(n, bool))
+    groups = {"supine": ("supine",), "side-lying": ("left", "right", "lateral"), "prone": ("prone",)}
+    out["flat_bed_by_posture"] = {g: float(rows["correct"][sel].mean()) for g, labels in groups.items()
+                                  if (sel := flat & rows["scored"] & np.isin(rows["posture"], labels)).any()}
+    known = np.isfinite(rows["height_m"])
+    mat_length = rows.get("mat_length_m")
+    out["mat_length_m"] = float(mat_length[0]) if mat_length is not None and n else None
+    out["taller_than_mat"] = (float(np.mean(rows["height_m"][known] > mat_length[known]))
+                              if mat_length is not None and known.any() else None)
+    out["load_kg_mean"] = float(np.mean(rows["load_kg"])) if "load_kg" in rows and n else None
+    out["weight_kg_mean"] = float(np.nanmean(rows["weight_kg"])) if np.isfinite(rows["weight_kg"]).any() else None
     out["n_estimates"] = out.pop("n")
     for key, col in (("per_subject", "subject"), ("per_posture", "posture"), ("per_detail", "detail"),
                      ("by_body_model", "body_model")):
@@ -213,6 +266,10 @@ def summarise(rows: dict) -> dict:
         out[key] = {str(v): _stats(rows, vals == v) for v in order}
     for v, st in out["per_subject"].items():  # what the subject measured, beside what was estimated
         sel = rows["subject"] == v
+        flat_scored = sel & flat & rows["scored"]
+        wedge = _wedge_stats(rows, sel)
+        st.update(flat_bed_posture_accuracy=float(rows["correct"][flat_scored].mean()) if flat_scored.any() else None,
+                  wedge_turned_right_way=None if wedge is None else wedge["turned_right_way"])
         st.update(height_m=float(rows["height_m"][sel].mean()), weight_kg=float(rows["weight_kg"][sel].mean()),
                   stature_mean_m=float(rows["stature_m"][sel].mean()),
                   stature_sd_m=float(rows["stature_m"][sel].std()), mass_mean_kg=float(rows["mass_kg"][sel].mean()))
@@ -261,11 +318,12 @@ def format_subject_table(summary: dict) -> str:
     and mass (and the spread of the stature over the subject's images), with the posture accuracy.
     A model that reads size shows estimates that follow the heights down the table."""
     lines = ["| subject | n | height (m) | estimated stature, mean (sd) (m) | weight (kg) | estimated mass, mean (kg) | "
-             "posture acc. |", "|---|---|---|---|---|---|---|"]
+             "posture acc., flat bed | wedge turned the right way |", "|---|---|---|---|---|---|---|---|"]
+    f2 = lambda v: "-" if v is None else f"{v:.2f}"  # noqa: E731
     for name, s in summary["per_subject"].items():
-        acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
         lines.append(f"| {name} | {s['n']} | {s['height_m']:.2f} | {s['stature_mean_m']:.2f} ({s['stature_sd_m']:.2f}) | "
-                     f"{s['weight_kg']:.0f} | {s['mass_mean_kg']:.0f} | {acc} |")
+                     f"{s['weight_kg']:.0f} | {s['mass_mean_kg']:.0f} | {f2(s.get('flat_bed_posture_accuracy'))} | "
+                     f"{f2(s.get('wedge_turned_right_way'))} |")
     r_h, r_w = summary.get("stature_r"), summary.get("stature_weight_r")
     f = lambda v: "-" if v is None else f"{v:.2f}"  # noqa: E731
     lines.append(f"\nCorrelation of the estimated stature with the measured height {f(r_h)}, with the weight {f(r_w)}.")

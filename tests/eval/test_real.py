@@ -154,6 +154,38 @@ def test_wedge_postures_are_summarised_apart_as_well():
     assert no_wedge["without_wedge"] is None and "wedge" not in format_real_table(no_wedge)
 
 
+def test_wedge_postures_are_scored_by_the_direction_of_the_turn():
+    """A body propped toward its left is read right when the estimate turns at least 15 degrees to its
+    left (positive roll), whatever posture class that makes; 'lateral' takes either side."""
+    from pressurepose.eval.real import summarise, turn_toward_label, wedge_angle
+
+    detail = np.array(["left 30 deg (wedge)", "left 30 deg (wedge)", "right 60 deg (wedge)",
+                       "right 60 deg (wedge)", "turned part-way (wedge)", "supine"])
+    posture = np.array(["left", "left", "right", "right", "lateral", "supine"])
+    roll = np.array([20.0, -5.0, -50.0, 10.0, -16.0, 3.0])
+    n = len(detail)
+    assert turn_toward_label(posture, roll)[:5].tolist() == [20.0, -5.0, 50.0, -10.0, 16.0]
+    assert np.isnan(turn_toward_label(posture, roll)[5])
+    assert [wedge_angle(d) for d in detail] == ["30", "30", "60", "60", "", ""]
+    rows = {"image": np.arange(n), "subject": np.array(["S1", "S1", "S2", "S2", "S2", "S1"]), "posture": posture,
+            "detail": detail, "source": np.array(["pmd"] * n), "body_model": np.array(["f"] * n),
+            "predicted": np.array(["supine"] * n), "scored": np.ones(n, bool),
+            "correct": ps.posture_correct(posture, np.array(["supine"] * n)), "roll_deg": roll,
+            "stature_m": np.full(n, 1.7), "height_m": np.array([1.75, 1.75, 1.95, 1.95, 1.95, 1.75]),
+            "stature_err_m": np.full(n, -0.05), "mass_kg": np.full(n, 60.0), "weight_kg": np.full(n, 62.0),
+            "mass_err_kg": np.full(n, -2.0), "contact_iou": np.full(n, 0.5), "load_kg": np.full(n, 61.0),
+            "mat_length_m": np.full(n, 1.8)}
+    s = summarise(rows)
+    assert s["wedge"]["n"] == 5 and s["wedge"]["turned_right_way"] == 3 / 5
+    assert s["wedge"]["median_turn_deg"] == {"unknown": 16.0, "30": 7.5, "60": 20.0}
+    assert s["per_subject"]["S1"]["wedge_turned_right_way"] == 0.5
+    assert s["per_subject"]["S2"]["wedge_turned_right_way"] == 2 / 3
+    assert s["per_subject"]["S1"]["flat_bed_posture_accuracy"] == 1.0
+    assert s["per_subject"]["S2"]["flat_bed_posture_accuracy"] is None
+    assert s["taller_than_mat"] == 0.5 and s["mat_length_m"] == 1.8 and s["load_kg_mean"] == 61.0
+    assert s["flat_bed_by_posture"] == {"supine": 1.0}  # the wedge postures are not flat-bed side-lying
+
+
 def test_contact_iou_threshold_defaults_to_the_models_contact_floor():
     """The IoU's input contact means what the model's contact channel means: its floor (5 mmHg for the
     shipped model), 2 mmHg for a model without one, or the value asked for."""
