@@ -59,6 +59,27 @@ def report_section(report: str, title: str) -> str:
     return body.split("\n## ", 1)[0].strip()
 
 
+def as_labelled(m: dict) -> str:
+    """The scores as PMD-I labels its postures: flat-bed postures by class, wedge postures by the
+    direction of the turn, and how much of the people the mat can show."""
+    parts = []
+    if m.get("without_wedge"):
+        by = ", ".join(f"{g} {a:.2f}" for g, a in m["flat_bed_by_posture"].items())
+        parts.append(f"flat bed: posture accuracy **{m['without_wedge']['posture_accuracy']:.2f}** ({by})")
+    if m.get("wedge"):
+        w = m["wedge"]
+        turns = ", ".join(f"{a} deg {t:+.0f}" for a, t in w["median_turn_deg"].items())
+        parts.append(f"propped on a wedge: **{w['turned_right_way']:.2f}** of {w['n']} estimates turn at least 15 "
+                     f"degrees toward the labelled side (median turn toward it: {turns})")
+    if m.get("taller_than_mat") is not None:
+        parts.append(f"{m['taller_than_mat']:.0%} of the people are taller than the mat is long "
+                     f"({m['mat_length_m']:.2f} m), so stature is no goal on this mat")
+    if m.get("load_kg_mean") is not None:
+        parts.append(f"the images carry {m['load_kg_mean']:.1f} kg on average against a measured "
+                     f"{m['weight_kg_mean']:.1f} kg")
+    return "As labelled: " + "; ".join(parts) + "." if parts else ""
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_real_argument(ap)
@@ -89,6 +110,7 @@ def main(argv=None) -> int:
         f"{m['n_images']} images of {len(m['per_subject'])} adults ({m['n_estimates']} estimates); skipped "
         f"{m['skipped']['inclined_bed']} inclined-bed recordings and {m['skipped']['weak_recording']} recording(s) "
         "whose load is under 10 % of their subject's median (a mat that barely recorded).", "",
+        as_labelled(m), "",
         report_section(report, "By posture"), "",
         "Posture confusion (rows: label; columns: the estimate's class):", "",
         report_section(report, "Posture confusion"), "",
