@@ -128,7 +128,7 @@ def main(argv=None) -> int:
             a = s["all"]
             lines.append(f"| simulated `{part}` | {a['count']} | {a['posture_accuracy']:.2f} | "
                          f"{a['stature_mae_cm']:.1f} | {a['stature_bias_cm']:+.1f} | {a['mod2']['mpjpe_cm']:.2f} |")
-        lines += [f"| real (all flat postures) | {m['n_estimates']} | {m['posture_accuracy']:.2f} | "
+        lines += [f"| real (every posture) | {m['n_estimates']} | {m['posture_accuracy']:.2f} | "
                   f"{100 * m['stature_mae_m']:.1f} | {100 * m['stature_bias_m']:+.1f} | - |", ""]
     rows = json.loads((out / "real" / "estimates.json").read_text())["rows"]
     stat = {g: np.array([r["stature_m"] for r in rows if r["body_model"] == g]) for g in ("f", "m")}
