@@ -288,7 +288,15 @@ def posture_runs(posture, durations, min_posture_s: float) -> list[tuple[str, in
     if len(out) >= 2 and d[out[0][1]:out[0][2]].sum() < min_posture_s:
         out[1][1] = 0
         out.pop(0)
-    return [(lab, s, e) for lab, s, e in out]
+    merged: list[list] = []
+    for _, s, e in out:  # a run is named for the posture held longest in it (a whole short recording too)
+        names = sorted(set(p[s:e].tolist()))
+        lab = max(names, key=lambda n: (d[s:e][p[s:e] == n].sum(), n != EMPTY))
+        if merged and merged[-1][0] == lab:
+            merged[-1][2] = e
+        else:
+            merged.append([lab, s, e])
+    return [(lab, s, e) for lab, s, e in merged]
 
 
 def _wrap_deg(a: float) -> float:

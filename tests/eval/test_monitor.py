@@ -61,6 +61,11 @@ def test_short_movements_join_the_posture_before_them():
     assert runs == [("supine", 0, 160), ("right", 160, 435)]
     runs = posture_runs(np.array(["left"] * 20 + ["supine"] * 100), np.ones(120), min_posture_s=60)
     assert runs == [("supine", 0, 120)]  # a short first run joins the one after it
+    # a recording shorter than a posture: one run, named for the posture held longest, not the first frame's
+    runs = posture_runs(np.array(["empty"] + ["right"] * 13), np.ones(14), min_posture_s=60)
+    assert runs == [("right", 0, 14)]
+    runs = posture_runs(np.array(["supine"] * 100 + ["left"] * 30 + ["right"] * 40), np.ones(170), min_posture_s=60)
+    assert runs == [("supine", 0, 170)]  # two short movements in a row still join the posture before them
 
 
 def _night(schedule, fps=1.0, rng=None):
