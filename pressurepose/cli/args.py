@@ -16,3 +16,21 @@ def seed_arg(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"{text}: seeds are whole numbers >= 0")
     return value
+
+
+def add_recording_arguments(p: argparse.ArgumentParser, required: bool) -> None:
+    """``--mat``, ``--units``, ``--weight-kg``, ``--gain``, ``--head-row``: a recording on its own mat
+    (shared by ``infer``, where they are optional, and ``monitor``, where mat and units are needed)."""
+    when = "" if required else "with --mat: "
+    p.add_argument("--mat", required=required, default=None, metavar="PRESET|mat.json",
+                   help="the recording's mat: a preset (boditrak_bt3510, fsa_softflex_2048, slp, tip) or a mat.json "
+                        "(preset, or rows, cols, pitch_m and optional pitch_col_m)"
+                        + ("" if required else "; default: the images are mmHg on the model's mat"))
+    p.add_argument("--units", choices=("raw", "mmHg"), required=required, default=None,
+                   help=f"{when}the readings' units, raw (the mat's own; needs --weight-kg or --gain) or mmHg")
+    p.add_argument("--weight-kg", type=float, default=None, metavar="W",
+                   help="raw readings to mmHg by the person's weight: each frame's total load set to W x g")
+    p.add_argument("--gain", type=float, default=None, metavar="G",
+                   help="raw readings to mmHg by your mat's calibration: G mmHg per raw unit")
+    p.add_argument("--head-row", choices=("first", "last"), default="first",
+                   help=f"{when}which end of the rows is the head: first (row 0, default) or last (flipped)")

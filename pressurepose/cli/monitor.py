@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from pressurepose.cli.args import add_recording_arguments
 from pressurepose.eval.monitor import (
     CAPILLARY_CLOSING_MMHG,
     REPOSITION_S,
@@ -26,16 +27,7 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
                    help="the frames: a .npy of (T, rows, cols), a .txt of one frame a line (PMD experiment I's "
                         "layout), or a folder of one-frame files (.npy, .csv, .txt) in the natural order of "
                         "their names")
-    p.add_argument("--mat", required=True, metavar="PRESET|mat.json",
-                   help="the recording's mat: a preset (boditrak_bt3510, fsa_softflex_2048, slp, tip) or a mat.json")
-    p.add_argument("--units", choices=("raw", "mmHg"), required=True,
-                   help="the readings' units: raw (the mat's own; needs --weight-kg or --gain) or mmHg")
-    p.add_argument("--weight-kg", type=float, default=None, metavar="W",
-                   help="raw readings to mmHg by the person's weight: each frame's total load set to W x g")
-    p.add_argument("--gain", type=float, default=None, metavar="G",
-                   help="raw readings to mmHg by your mat's calibration: G mmHg per raw unit")
-    p.add_argument("--head-row", choices=("first", "last"), default="first",
-                   help="which end of the rows is the head: first (row 0, default) or last")
+    add_recording_arguments(p, required=True)
     p.add_argument("--gender", required=True, help="f or m")
     timing = p.add_mutually_exclusive_group()
     timing.add_argument("--fps", type=float, default=None, help="frames per second of the recording")
@@ -100,13 +92,12 @@ def run_monitor(args) -> int:
     import matplotlib.pyplot as plt
 
     from pressurepose.cli.net import body_specs
-    from pressurepose.data.readers.recording import resolve_mat
+    from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.data.schema import check_gender
     from pressurepose.errors import BadInput
     from pressurepose.eval.monitor import (
         frame_times,
         monitor,
-        read_frames,
         recording_input,
     )
     from pressurepose.files import (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pressurepose.cli.args import seed_arg
+from pressurepose.cli.args import add_recording_arguments, seed_arg
 
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
@@ -121,18 +121,7 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
                         "`simulate` output or a training pack) or HDF5 (.h5, a shard of a generated dataset); with "
                         "--mat also a text recording (.txt) of one frame a line, as PMD experiment I's files (every "
                         "frame that carries the body is estimated)")
-    p.add_argument("--mat", default=None, metavar="PRESET|mat.json",
-                   help="the recording's mat: a preset (boditrak_bt3510, fsa_softflex_2048, slp, tip) or a mat.json "
-                        "(preset, or rows, cols, pitch_m and optional pitch_col_m); default: the images are mmHg on "
-                        "the model's mat")
-    p.add_argument("--units", choices=("raw", "mmHg"), default=None,
-                   help="with --mat: the readings' units, raw (the mat's own; needs --weight-kg or --gain) or mmHg")
-    p.add_argument("--weight-kg", type=float, default=None, metavar="W",
-                   help="raw readings to mmHg by the person's weight: each frame's total load set to W x g")
-    p.add_argument("--gain", type=float, default=None, metavar="G",
-                   help="raw readings to mmHg by your mat's calibration: G mmHg per raw unit")
-    p.add_argument("--head-row", choices=("first", "last"), default="first",
-                   help="with --mat: which end of the rows is the head: first (row 0, default) or last (flipped)")
+    add_recording_arguments(p, required=False)
     p.add_argument("--gender", default=None, help="f or m (one for all images, or comma-separated per image); "
                                                  "may be left out for a file that stores it (a dataset shard, a "
                                                  "`simulate` .npz, a training pack)")

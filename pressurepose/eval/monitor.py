@@ -451,57 +451,6 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     return timeline(t, p, selection, roll, maps, grid, config)
 
 
-# ---------------------------------------------------------------------------------------- reading
-FRAME_SUFFIXES = (".npy", ".csv", ".txt")
-
-
-def _natural_key(path) -> list:
-    import re
-
-    return [int(tok) if tok.isdigit() else tok for tok in re.split(r"(\d+)", path.name)]
-
-
-def read_frames(source, shape: tuple[int, int]) -> np.ndarray:
-    """Every frame (T, rows, cols) of a recording from a ``rows x cols`` mat, as stored: a ``.npy``
-    of (T, rows, cols) (or one frame), a text file of one frame a line (PhysioNet PMD experiment I's
-    layout), or a folder of one-frame files (.npy, .csv, or .txt of ``rows`` lines), in the natural
-    order of their names (frame_2 before frame_10). No frame is left out: the timeline needs them
-    all. BadInput naming the file for anything else."""
-    from pathlib import Path
-
-    from pressurepose.data.readers.pmd import read_frame_lines, read_image_lines
-    from pressurepose.data.readers.recording import read_array_file
-
-    path = Path(source)
-    if path.is_dir():
-        files = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in FRAME_SUFFIXES),
-                       key=_natural_key)
-        if not files:
-            raise BadInput(f"recording folder {str(path)!r} holds no frame files ({', '.join(FRAME_SUFFIXES)})")
-        frames = []
-        for f in files:
-            img = read_image_lines(f, shape) if f.suffix.lower() == ".txt" else read_array_file(f, "frame")
-            if np.shape(img) != tuple(shape):
-                raise BadInput(f"frame file {str(f)!r} has shape {np.shape(img)}; the mat is {shape[0]} x {shape[1]}")
-            frames.append(np.asarray(img, dtype=np.float32))
-        return np.stack(frames)
-    if not path.is_file():
-        raise BadInput(f"recording {str(path)!r} does not exist")
-    if path.suffix.lower() == ".txt":
-        arr = read_frame_lines(path, shape)
-    elif path.suffix.lower() == ".npy":
-        arr = read_array_file(path, "recording")
-    else:
-        raise BadInput(f"recording {str(path)!r}: expected a .npy of frames, a .txt of one frame a line, or a folder "
-                       f"of frame files")
-    arr = np.asarray(arr, dtype=np.float32)
-    arr = arr[None] if arr.ndim == 2 else arr
-    if arr.ndim != 3 or arr.shape[1:] != tuple(shape):
-        raise BadInput(f"recording {str(path)!r} has shape {arr.shape}; the mat is {shape[0]} x {shape[1]}: expected "
-                       f"(T, {shape[0]}, {shape[1]}) frames")
-    return arr
-
-
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,
                     head_row: str = "first", chunk: int = 1024) -> tuple[np.ndarray, np.ndarray]:
     """A recording's frames (T, rows, cols) on ``mat`` (preset, mat.json or MatSpec) as the model's

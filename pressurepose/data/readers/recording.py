@@ -17,10 +17,15 @@ a :class:`~pressurepose.mat.MatSpec`. ``units``: 'raw' (the mat's own readings: 
 person's ``weight_kg`` or a calibration ``gain`` to become mmHg) or 'mmHg'. ``head_row``: 'first'
 when row 0 of the frames is at the head end, 'last' when it is at the feet (then the rows are
 flipped). The frames then reach a model by :meth:`RealImages.model_input`.
+
+``read_frames(source, shape)`` reads a recording over time as stored, every frame kept (blank ones
+too: a timeline needs them all), from a ``.npy``, a text file of one frame a line, or a folder of
+one-frame files.
 """
 
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 
@@ -179,3 +184,47 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
                       detail=empty(""), height_m=empty(np.nan), weight_kg=weight, gender=empty(""), subject=empty(""),
                       source=empty(name), frame=np.asarray(index, dtype=int), mat=spec, units=units,
                       layout="recording", gain=None if gain is None else float(gain))
+
+
+# ---------------------------------------------------------------------------------------- over time
+FRAME_SUFFIXES = (".npy", ".csv", ".txt")
+
+
+def _natural_key(path) -> list:
+    return [int(tok) if tok.isdigit() else tok for tok in re.split(r"(\d+)", path.name)]
+
+
+def read_frames(source, shape: tuple[int, int]) -> np.ndarray:
+    """Every frame (T, rows, cols) of a recording from a ``rows x cols`` mat, as stored: a ``.npy``
+    of (T, rows, cols) (or one frame), a text file of one frame a line (PhysioNet PMD experiment I's
+    layout), or a folder of one-frame files (.npy, .csv, or .txt of ``rows`` lines), in the natural
+    order of their names (frame_2 before frame_10). No frame is left out: the timeline needs them
+    all. BadInput naming the file for anything else."""
+    path = Path(source)
+    if path.is_dir():
+        files = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in FRAME_SUFFIXES),
+                       key=_natural_key)
+        if not files:
+            raise BadInput(f"recording folder {str(path)!r} holds no frame files ({', '.join(FRAME_SUFFIXES)})")
+        frames = []
+        for f in files:
+            img = read_image_lines(f, shape) if f.suffix.lower() == ".txt" else read_array_file(f, "frame")
+            if np.shape(img) != tuple(shape):
+                raise BadInput(f"frame file {str(f)!r} has shape {np.shape(img)}; the mat is {shape[0]} x {shape[1]}")
+            frames.append(np.asarray(img, dtype=np.float32))
+        return np.stack(frames)
+    if not path.is_file():
+        raise BadInput(f"recording {str(path)!r} does not exist")
+    if path.suffix.lower() == ".txt":
+        arr = read_frame_lines(path, shape)
+    elif path.suffix.lower() == ".npy":
+        arr = read_array_file(path, "recording")
+    else:
+        raise BadInput(f"recording {str(path)!r}: expected a .npy of frames, a .txt of one frame a line, or a folder "
+                       f"of frame files")
+    arr = np.asarray(arr, dtype=np.float32)
+    arr = arr[None] if arr.ndim == 2 else arr
+    if arr.ndim != 3 or arr.shape[1:] != tuple(shape):
+        raise BadInput(f"recording {str(path)!r} has shape {arr.shape}; the mat is {shape[0]} x {shape[1]}: expected "
+                       f"(T, {shape[0]}, {shape[1]}) frames")
+    return arr
