@@ -47,19 +47,25 @@ def estimate_figure(est: Estimate, i: int = 0):
     return fig
 
 
-def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
-    """Write ``estimate_000.png``... for the first ``max_figures`` images of ``est`` into ``out_dir``,
-    removing numbered pictures an earlier estimate left there. Returns the paths written."""
+def save_numbered_figures(out_dir: str | Path, prefix: str, count: int, draw) -> list[Path]:
+    """Write ``PREFIX000.png``... : ``draw(i)`` for i < ``count`` into ``out_dir``, removing numbered
+    pictures of the same prefix an earlier, longer estimate left there. Returns the paths written."""
     import matplotlib.pyplot as plt
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for i in range(min(len(est), max_figures)):
-        p = out / f"estimate_{i:03d}.png"
-        fig = estimate_figure(est, i)
+    for i in range(count):
+        p = out / f"{prefix}{i:03d}.png"
+        fig = draw(i)
         save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         paths.append(p)
-    remove_stale_numbered(out, "estimate_", (".png",), paths)  # an earlier, longer estimate's
+    remove_stale_numbered(out, prefix, (".png",), paths)
     return paths
+
+
+def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
+    """Write ``estimate_000.png``... for the first ``max_figures`` images of ``est`` into ``out_dir``,
+    removing numbered pictures an earlier estimate left there. Returns the paths written."""
+    return save_numbered_figures(out_dir, "estimate_", min(len(est), max_figures), lambda i: estimate_figure(est, i))

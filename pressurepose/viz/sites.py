@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.body.sites import SITES
-from pressurepose.files import remove_stale_numbered, save_figure_atomic
 from pressurepose.net.infer import Estimate
+from pressurepose.viz.estimate import save_numbered_figures
 
 THRESHOLD_MMHG = 32.0  # capillary closing pressure (Landis 1930), as pressurepose.eval.monitor
 
@@ -96,17 +96,6 @@ def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMH
 def save_site_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
     """Write ``sites_000.png``... for the first ``max_figures`` images of an estimate with site
     loads into ``out_dir``, removing numbered site pictures an earlier estimate left there."""
-    import matplotlib.pyplot as plt
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for i in range(min(len(est), max_figures) if est.sites is not None else 0):
-        p = out / f"sites_{i:03d}.png"
-        fig = site_figure(est, i)
-        save_figure_atomic(fig, p, dpi=110)
-        plt.close(fig)
-        paths.append(p)
-    remove_stale_numbered(out, "sites_", (".png",), paths)  # an earlier, longer estimate's
-    return paths
+    count = min(len(est), max_figures) if est.sites is not None else 0
+    return save_numbered_figures(out_dir, "sites_", count, lambda i: site_figure(est, i))
 
