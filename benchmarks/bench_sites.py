@@ -190,7 +190,7 @@ def main(argv=None) -> int:
         f"`{command}`; {stamp()}; " + ("the shipped model" if args.model is None else f"model `{args.model}`")
         + f"; {len(data['gender'])} simulated images: {source}. The truth is the body site that carried each "
         "taxel's force in the press (`Sample.sites`); the estimate splits each image over the sites of the "
-        "estimated body (the vertex of its lowest triangle over each taxel). Share errors in percentage points "
+        "estimated body (moved by whole taxels onto the image's print, then the vertex of its lowest triangle over each taxel). Share errors in percentage points "
         f"(pp) of the image's load, averaged over images; 'loaded sites' are those carrying at least "
         f"{100 * LOADED:.0f} % of the load in the truth or the estimate; the peak error is over the sites "
         f"loaded in the truth. The most loaded site in the truth: "

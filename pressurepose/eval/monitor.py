@@ -447,7 +447,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         part = idx[s:s + chunk]
         est = estimate(p[part], gender, net, batch_size=batch_size)
         roll[s:s + len(part)] = roll_angle(est.pose)
-        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid)
+        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
     return timeline(t, p, selection, roll, maps, grid, config)
 
 

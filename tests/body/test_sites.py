@@ -12,6 +12,7 @@ from pressurepose.body.sites import (
     SITES,
     body_loads,
     body_site_map,
+    fit_offset,
     lowest_vertices,
     site_index,
     site_loads,
@@ -240,3 +241,34 @@ def test_body_loads_are_site_loads_and_vertex_pressure_together():
     np.testing.assert_allclose(loads.share, alone.share)
     np.testing.assert_allclose(on_skin, vertex_pressure(p, v[None], body.faces, mat))
     assert on_skin.max() == pytest.approx(p.max()) and (on_skin > 0).sum() < 0.3 * body.num_vertices
+
+
+def test_a_body_read_a_taxel_off_its_print_is_moved_back_onto_it():
+    body = shipped("female")
+    v, mat = _lying(body, 0.0)
+    p = _sunk(v, body.faces, mat, 0.09)[None]
+    sites = vertex_sites(body)
+    right = taxel_sites(p, v[None], body.faces, sites, mat)
+    off = v + [0.0, -mat.pitch_row_m, 0.0]  # read one taxel toward the head
+    heights = lower_surface(off, body.faces, (0.0, 0.0), (mat.pitch_col_m, mat.pitch_row_m), mat.shape)
+    assert fit_offset(p[0], heights, mat) == (1, 0)
+    np.testing.assert_array_equal(taxel_sites(p, off[None], body.faces, sites, mat), right)
+    # as read, the body off its print gives the sacrum's and scapulae's taxels to their neighbours
+    as_read = body_site_map(off[None], body.faces, sites, mat)
+    assert (np.where(p > 0, as_read, NO_SITE) != right).sum() > 20
+    np.testing.assert_array_equal(np.where(p > 0, body_site_map(off[None], body.faces, sites, mat, p), NO_SITE), right)
+
+
+def test_a_body_already_on_its_print_and_an_empty_image_are_not_moved():
+    body = shipped("male")
+    v, mat = _lying(body, 0.0)
+    heights = lower_surface(v, body.faces, (0.0, 0.0), (mat.pitch_col_m, mat.pitch_row_m), mat.shape)
+    assert fit_offset(_sunk(v, body.faces, mat, 0.09), heights, mat) == (0, 0)
+    assert fit_offset(np.zeros(mat.shape), heights, mat) == (0, 0)
+    assert fit_offset(_sunk(v, body.faces, mat, 0.09), np.full(mat.shape, np.inf), mat) == (0, 0)
+
+
+def test_site_map_refuses_images_that_do_not_match_the_bodies():
+    v, f, _ = sheet(range(2), range(2))
+    with pytest.raises(BadInput, match="one image per body"):
+        body_site_map(np.stack([v, v]), f, np.zeros(len(v), int), MAT, np.zeros((1, 4, 5)))
