@@ -23,8 +23,10 @@ only the values beyond (2.2 -> 2.5 cm). The limits are the settle's too
                    matches the public sampler's fuller capsules). A colliding pose is first nudged
                    apart: the colliding limbs' joints (hip, knee, ankle / shoulder, elbow, wrist)
                    are turned by Gaussian nudges, ``SEPARATE_TRIES`` per round with the sd growing
-                   by ``SEPARATE_STEP_DEG`` a round, and the free nudge that moves the joints least
-                   in the first round that has one is kept;
+                   by ``SEPARATE_STEP_DEG`` a round; in the first round that has free nudges, each
+                   is shortened to about the least part of it that frees the pose (halving the
+                   way back to the drawn pose, ``SEPARATE_HALVINGS`` times), and the one that moves
+                   the joints least is kept;
 ``off_mattress``   unless limbs may hang (``SamplerConfig.hanging_limbs``), the elbows, wrists,
                    hands, knees, ankles and feet lie over the mattress, ``side_margin_m`` from its
                    sides, once the body has slid across the bed as little as brings them there (a
@@ -35,6 +37,26 @@ capsules (rigid, fitted round the flesh) cannot do; about 9 in 10 of the real po
 Rejecting them keeps the tenth whose hands touch nothing: 300 held-out supine fits (subjects 61-80)
 passed through these rules lay 7.4 cm from themselves (end-joint distance) with the 1.2 x radii and
 no nudging; nudged, 4.1 cm at 1.2 x and 2.9 cm at 1.0 x (600 side-lying fits: 3.9, 2.1, 1.8 cm).
+The nudges are what most separates the natural partitions' bodies from real people: 400
+``natural_supine`` bodies' poses lay 2.5 cm from the held-out fits as drawn and clipped and 3.4 cm
+once nudged (elbows 2.4 -> 4.0 cm, wrists 3.1 -> 5.6 cm; side-lying 2.3 -> 2.7 cm); shortening each
+nudge to the least that frees the pose brought 600 drawn bodies from 3.5 to 3.3 cm (side-lying
+2.8 -> 2.7 cm).
+
+The hip twist is real in the fits, not an artefact of the angles: the limits bound the components
+of SMPL's local axis-angle, as the paper's public sampler draws them (it writes each drawn angle
+into the pose vector unchanged) and as the settle's limit torques read them
+(:mod:`pressurepose.sim.ragdoll`). The supine fits' legs are near straight (median knee flexion
+9-11 deg), so every reading of the hip's rotation agrees: the axis-angle's y component (left hip
+median 42 deg outward), the twist about the rest femur (43 deg) and the y angle of XYZ, ZXY or YXZ
+Euler angles (38-43 deg) all lie beyond the 32.6 deg allowed for 57-60 % of the supine fits of
+subjects 1-60. (The fits hold the knee to its hinge and the feet nearly still, so an outward-rolled
+shin and foot can only show as hip twist.) Nor is the clipping what costs the natural partitions
+their distance: with no clipping at all 600 drawn ``natural_supine`` bodies lay 3.45 cm from the
+held-out fits, clipped 3.47 cm. Projecting a pose beyond the limits onto them so that the knee,
+ankle and foot (elbow, wrist, hand) move least, rather than clipping each value, moved the
+held-out supine fits 0.9 cm from themselves instead of 1.1 cm and the drawn bodies 3.41 cm: not
+kept, for its 2 ms a pose.
 
 A rejected pose is redrawn, and after ``off_bed_patience`` or ``collision_patience`` rejections
 the body's shape, root and place as well. Bins are not drawn: the returned bins are the ones the
@@ -63,6 +85,7 @@ _COL = {name: i for i, name in enumerate(COUNTERS)}
 SEPARATE_ROUNDS = 24
 SEPARATE_TRIES = 16
 SEPARATE_STEP_DEG = 1.5
+SEPARATE_HALVINGS = 6  # each free nudge is shortened to within 1/64 of the least that frees the pose
 # the joints a limb's nudges turn (its hinge about its own axis only): hip, knee, ankle / shoulder,
 # elbow, wrist (the collar stays: it moves the shoulder's root)
 _NUDGED = tuple(tuple(limb.chain[i] for i in ((0, 1, 2) if limb.is_leg else (1, 2, 3))) for limb in LIMBS)
@@ -231,12 +254,27 @@ class WholePoseRun(Run):
                 noise = self.rngs[i].standard_normal((SEPARATE_TRIES, 69))
                 tries = clip_to_limits(base + mask * np.radians(SEPARATE_STEP_DEG * r) * noise, self.limits)
                 pos, ends = self._posed(i, tries)
-                moved = np.linalg.norm(pos - joints, axis=-1).sum(axis=1)
-                free = next((k for k in np.argsort(moved, kind="stable")
-                             if not self.collision.contacts(ends[k], self.col_radius[i])), None)
-                if free is not None:
-                    self.body_pose[i] = tries[free]
+                free = [k for k in range(len(tries)) if not self.collision.contacts(ends[k], self.col_radius[i])]
+                if free:
+                    shortened = np.array([self._shortest_free(i, base, tries[k]) for k in free])
+                    pos, _ = self._posed(i, shortened)
+                    moved = np.linalg.norm(pos - joints, axis=-1).sum(axis=1)
+                    self.body_pose[i] = shortened[int(np.argmin(moved))]
                     break
+
+    def _shortest_free(self, i: int, base: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """The body pose (69,) on the way from a colliding pose ``base`` to a free one ``free`` of body
+        i, ``SEPARATE_HALVINGS`` halvings from the first free one along it (a free pose; both ends lie
+        within the limits, whose set is convex, and so does every pose between)."""
+        lo, hi = 0.0, 1.0  # fractions of the way: lo collides, hi is free
+        for _ in range(SEPARATE_HALVINGS):
+            mid = 0.5 * (lo + hi)
+            _, ends = self._posed(i, (base + mid * (free - base))[None])
+            if self.collision.contacts(ends[0], self.col_radius[i]):
+                lo = mid
+            else:
+                hi = mid
+        return base + hi * (free - base)
 
     def _over_mattress(self, idx: np.ndarray) -> np.ndarray:
         """(len(idx),) True where the limbs' on-bed joints lie over the mattress (see module doc),

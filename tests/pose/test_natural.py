@@ -8,7 +8,7 @@ from pressurepose.body.capsules import capsule_endpoints, capsules_for, joint_fr
 from pressurepose.body.joints import joint_index, mirror_permutation
 from pressurepose.errors import BadInput
 from pressurepose.pose import SamplerConfig, sample_bodies
-from pressurepose.pose.collision import checker
+from pressurepose.pose.collision import checker, segment_distance
 from pressurepose.pose.fidelity import END_JOINTS, end_joint_distances, pelvis_frame_joints
 from pressurepose.pose.limits import joint_limits
 from pressurepose.pose.natural import (
@@ -102,6 +102,17 @@ def test_clipping_to_limits():
     assert within_limits(clipped, limits).all() and not within_limits(pose, limits).all()
     inside = clip_to_limits(np.zeros((1, 69)), limits)
     np.testing.assert_array_equal(inside, 0)
+    # poses drawn within the limits (each bounded value inside its range, the shoulders split 1 : 2)
+    # are unchanged, the values the limits do not bound too
+    box = rng.uniform(limits.lower, limits.upper, (50, 24, 3))
+    for side, name in enumerate(("left_shoulder", "right_shoulder")):
+        total = rng.uniform(limits.shoulder_lower[side], limits.shoulder_upper[side], (50, 3))
+        box[:, joint_index(name.replace("shoulder", "collar"))] = limits.shoulder_split * total
+        box[:, joint_index(name)] = (1.0 - limits.shoulder_split) * total
+    box[:, joint_index("spine1")] = rng.normal(0, 0.3, (50, 3))
+    within = box.reshape(50, 72)[:, 3:]
+    assert within_limits(within, limits).all()
+    np.testing.assert_allclose(clip_to_limits(within, limits), within, atol=1e-15)
     hip_y = 3 * joint_index("left_hip") + 1 - 3
     spine = 3 * joint_index("spine1") - 3
     one = np.zeros((1, 69))
@@ -193,3 +204,28 @@ def test_colliding_file_poses_are_nudged_apart(tmp_path):
     assert np.all(moved > 0) and np.all(moved < 45)  # nudged, not redrawn
     legs = [3 * joint_index(n) + k for n in ("left_hip", "right_hip", "left_knee", "right_knee") for k in range(3)]
     np.testing.assert_array_equal(batch.pose[:, legs], p[:, legs].repeat(len(batch), 0))  # only the arms moved
+
+
+def test_a_nudge_goes_no_further_than_frees_the_pose(tmp_path):
+    p = tiny_pose_file(tmp_path / "p.npz")[:1]
+    for side, sign in (("left", -1), ("right", 1)):  # forearms across the belly, as above
+        p[0, 3 * joint_index(f"{side}_shoulder") + 2] = np.radians(sign * 75)
+        p[0, 3 * joint_index(f"{side}_elbow") + 1] = np.radians(sign * 110)
+    np.savez(tmp_path / "c.npz", pose=p)
+    body = BodyModel("female")
+    caps = capsules_for(body, np.zeros(10))
+    pos, rot = joint_frames(body, np.zeros(10), p)
+    touching = checker().contacts(capsule_endpoints(caps, pos, rot)[0], caps.radius)
+    batch = sample_bodies("general_supine", "f", 6, seed=1, body=body,
+                          config=SamplerConfig(poses=PoseFile.of(tmp_path / "c.npz", noise_deg=0.0), **NO_MARGIN))
+    for k in range(len(batch)):
+        c = capsules_for(body, batch.betas[k])
+        pos, rot = joint_frames(body, batch.betas[k], batch.pose[k:k + 1], batch.transl[k:k + 1])
+        ends = capsule_endpoints(c, pos, rot)[0]
+        gaps = [segment_distance(*ends[a], *ends[b]) - c.radius[a] - c.radius[b] for a, b in touching]
+        # apart, and the nearest of the pairs that touched no more than a few millimetres apart: a
+        # free nudge is shortened to within 1/64 of the least that frees the pose
+        assert 0 <= min(gaps) < 0.005
+        halfway = p[0, 3:] + 0.5 * (batch.pose[k, 3:] - p[0, 3:])
+        pos, rot = joint_frames(body, batch.betas[k], np.concatenate([batch.pose[k, :3], halfway])[None])
+        assert checker().contacts(capsule_endpoints(c, pos, rot)[0], c.radius)  # half the nudge still collides
