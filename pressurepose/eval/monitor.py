@@ -452,7 +452,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
 
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,
-                    head_row: str = "first", chunk: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+                    head_row: str = "first", chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """A recording's frames (T, rows, cols) on ``mat`` (preset, mat.json or MatSpec) as the model's
     input: (T, dst.rows, dst.cols) float32 mmHg and occupied (T,) bool. Frames that carry a body
     take the road every real image takes (:func:`pressurepose.data.readers.recording.read_recording`
