@@ -31,7 +31,7 @@ RUNS = [
     ("supine_crossed_legs", False, 30), ("supine_crossed_legs", True, 30),
     ("supine_straight_limbs", False, 200), ("supine_straight_limbs", True, 100),
 ]
-SHORT = {"height": "height", "bin": "bin", "into_bed": "into bed", "off_mattress": "off mattress",
+SHORT = {"height": "height", "bin": "bin", "off_mattress": "off mattress",
          "not_behind_head": "not behind head", "limb_collision": "limb collision"}
 
 
@@ -98,8 +98,7 @@ def main(argv=None) -> int:
               "trunk, head and itself (limb collision), so it counts collisions between limbs only. Bins "
               "are redrawn when a limb cannot reach its bin from the body's root and shape (prone leg bins "
               "near the hips), after 20 candidates in the bin fell off the mattress (limbs on bed), and "
-              "for crossed legs after 20 leg pairs that did not cross. The into-bed test is opt-in "
-              "(`SamplerConfig(max_limb_sink=...)`, off by default), hence 0 here."]
+              "for crossed legs after 20 leg pairs that did not cross."]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:

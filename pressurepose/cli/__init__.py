@@ -14,7 +14,7 @@ import sys
 
 # verb -> (module, function stem, one-line help)
 VERBS: dict[str, tuple[str, str, str]] = {
-    "convert": ("pressurepose.cli.data", "convert", "convert the official PressurePose release to our datasets, or back"),
+    "convert": ("pressurepose.cli.data", "convert", "convert the official PressurePose release to pressurepose datasets, or back"),
     "demo": ("pressurepose.cli.demo", "demo", "run the whole pipeline on built-in defaults and draw it"),
     "simulate": ("pressurepose.cli.sim", "simulate",
                  "settle bodies on the bed and press them: pressure images and labels (.npz, --plot)"),

@@ -223,16 +223,16 @@ def run_info(args: argparse.Namespace) -> int:
 
 def add_convert_arguments(p: argparse.ArgumentParser) -> None:
     p.description = (
-        "Convert the official PressurePose release to this project's format, or back. SRC may be a "
+        "Convert the official PressurePose release to pressurepose datasets, or back. SRC may be a "
         "synthetic .p file or a folder of them (each becomes OUT/<file stem>, a dataset), or a real-data "
         "participant folder with participant_info_red.p (becomes OUT/<participant>.h5: pressure images, "
-        "body facts, point clouds). With --to-pressurepose, SRC is one of our datasets (BodiTrak 64 x 27) "
+        "body facts, point clouds). With --to-pressurepose, SRC is a pressurepose dataset (BodiTrak 64 x 27) "
         "and OUT a .p file in the release format. Pickles are read with an unpickler that only builds "
-        "arrays. Images are mirrored and coordinates rotated into our bed frame (see "
+        "arrays. Images are mirrored and coordinates rotated into pressurepose's bed frame (z up, y toward the feet; see "
         "pressurepose/data/readers/pressurepose_pickle.py).")
     p.add_argument("src", help="release file or folder, or (with --to-pressurepose) a dataset directory")
     p.add_argument("--out", required=True, help="output directory (or .p file with --to-pressurepose)")
-    p.add_argument("--to-pressurepose", action="store_true", help="export our dataset to the release format")
+    p.add_argument("--to-pressurepose", action="store_true", help="export a pressurepose dataset to the release format")
     p.add_argument("--partition", help="override the partition read from the file name")
     p.add_argument("--gender", help="override the gender read from the file name (f or m)")
     p.add_argument("--limbs-on-bed", choices=("yes", "no"), help="override the 'plo' flag read from the file name")

@@ -22,7 +22,8 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
         "time, the time each site spent above a threshold, and an alert where a site stayed above it for "
         "longer than a repositioning interval. A frame is estimated only when its load changed since the "
         "last estimated frame; every frame's own readings are split over the body sites. Writes "
-        "timeline.json, timeline.csv and night.png in --out (docs/monitoring.md).")
+        "timeline.csv (a row per frame), timeline.json (the findings, per posture held and per minute) and "
+        "night.png in --out (docs/monitoring.md).")
     p.add_argument("recording", metavar="RECORDING",
                    help="the frames: a .npy of (T, rows, cols), a .txt of one frame a line (PMD experiment I's "
                         "layout), or a folder of one-frame files (.npy, .csv, .txt) in the natural order of "

@@ -26,9 +26,9 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lr-schedule", choices=("constant", "cosine"), default=d.lr_schedule,
                    help="constant (the paper) or cosine: each stage's rate falls to 0 over its epochs")
     p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"default {d.weight_decay}")
-    p.add_argument("--no-noise", action="store_true", help="train without the noise model (ablation)")
-    p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (ablation)")
-    p.add_argument("--no-edges-contact", action="store_true", help="drop the Sobel and contact channels (ablation)")
+    p.add_argument("--no-noise", action="store_true", help="train without the noise model (one of the paper's ablations, table 2)")
+    p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (the paper's PMR ablation)")
+    p.add_argument("--no-edges-contact", action="store_true", help="drop the Sobel and contact channels (the paper's input ablation)")
     p.add_argument("--gender-input", action="store_true", help="also feed the gender flag to the CNN (not in the paper)")
     p.add_argument("--loss-sigmas", choices=("paper", "data"), default=d.loss_sigmas,
                    help="sigma_s and sigma_beta: the paper's values or from the training set (default paper)")

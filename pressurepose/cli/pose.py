@@ -77,10 +77,6 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
                         "height (proximal, the public code's rule, default) or between 0.1 m below and 0.3 m "
                         "above the surface the body lies on (bed: keeps the upper limbs of a body on its "
                         "side near the bed, so fewer lateral bodies roll over while settling)")
-    p.add_argument("--max-limb-sink", type=float, default=None, metavar="M",
-                   help="opt-in: reject limb candidates with a capsule more than M metres below the surface "
-                        "the body lies on (e.g. 0.05; off by default, as in the paper and its public code, "
-                        "whose supine marginals it would bias toward raised legs)")
     add_body_arguments(p)
     p.add_argument("--count", type=int, required=True, help=f"number of bodies (at most {MAX_COUNT})")
     p.add_argument("--seed", type=seed_arg, required=True, help="random seed (whole number >= 0)")
@@ -122,8 +118,7 @@ def run_sample(args) -> int:
     partition = get_partition(args.partition).name
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
-    config = SamplerConfig(height_reference=args.height_reference, max_limb_sink=args.max_limb_sink,
-                           **body_settings(args))
+    config = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
     t0 = time.perf_counter()
     parts = []
     with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK) as bar:

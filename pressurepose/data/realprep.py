@@ -65,8 +65,12 @@ def valid_frames(frames, low: float = 0.5, high: float = 2.0) -> np.ndarray:
     times the median total of the non-zero frames: a person lying still loads the mat about equally
     in every frame, so a near-empty frame or a saturated start-up frame is an artefact.
     """
-    f = _images(frames, "frames", 3)
-    total = f.reshape(len(f), -1).sum(1)
+    f = np.asarray(frames)
+    if f.ndim < 3 or f.size == 0 or f.dtype.kind not in "fiub":
+        raise BadInput(f"frames have shape {f.shape} ({f.dtype}); expected numbers (..., rows, cols)")
+    total = f.reshape(len(f), -1).sum(1, dtype=np.float64)  # frames as they are: no float64 copy of a night
+    if not np.all(np.isfinite(total)):
+        raise BadInput("frames contain NaN or infinite values")
     nonzero = total > 0
     if not nonzero.any():
         return nonzero

@@ -229,15 +229,53 @@ class Timeline:
             "alerts": [{k: _num(v) for k, v in dataclasses.asdict(a).items()} for a in self.alerts],
         }
 
-    def to_dict(self) -> dict:
-        """:meth:`summary` with one row per frame (time, posture, roll, estimated, per-site peak
-        and share), strict JSON (NaN written as null)."""
-        rows = [{"time_s": _num(float(self.times_s[t])), "posture": str(self.posture[t]),
-                 "roll_deg": _num(float(self.roll_deg[t])), "estimated": bool(self.estimated[t]),
-                 "peak_mmhg": {s: _num(float(self.peak_mmhg[t, k])) for k, s in enumerate(SITES)},
-                 "share": {s: _num(float(self.share[t, k]), 5) for k, s in enumerate(SITES)}}
-                for t in range(len(self))]
-        return {**self.summary(), "sites": list(SITES), "frames_table": rows}
+    def segments(self) -> list[dict]:
+        """One dict per stretch of one posture (after the movements are joined): posture, start_s,
+        end_s, duration_s, first_frame, frames, roll_deg (its median roll; None when empty), and per
+        site its highest peak (``peak_mmhg``) and its time-weighted mean share of the load (``share``)."""
+        dur = frame_durations(self.times_s)
+        cut = np.flatnonzero(self.posture[1:] != self.posture[:-1]) + 1
+        return [{"posture": str(self.posture[s]), "start_s": _num(float(self.times_s[s])),
+                 "end_s": _num(float(self.times_s[e - 1] + dur[e - 1])), "duration_s": _num(float(dur[s:e].sum())),
+                 "first_frame": int(s), "frames": int(e - s), **self._loads(s, e, dur)}
+                for s, e in zip(np.r_[0, cut], np.r_[cut, len(self)]) if e > s]
+
+    def per_interval(self, interval_s: float = 60.0) -> list[dict]:
+        """One dict per ``interval_s`` of the recording, counted from its first frame (an interval
+        holding no frame is left out): start_s, end_s, duration_s (the time its frames stand for),
+        posture (the one held longest in it), frames, frames_estimated, roll_deg (median), and per
+        site the highest peak (``peak_mmhg``) and the time-weighted mean share of the load (``share``)."""
+        if isinstance(interval_s, bool) or not isinstance(interval_s, (int, float)) or not math.isfinite(interval_s) \
+                or interval_s <= 0:
+            raise BadInput(f"interval_s is {interval_s!r}; expected a positive number of seconds")
+        dur = frame_durations(self.times_s)
+        k = np.floor(self.times_s / interval_s).astype(np.int64)
+        starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(self) else np.zeros(0, np.int64)
+        out = []
+        for s, e in zip(starts, np.r_[starts[1:], len(self)]):
+            names, where = np.unique(self.posture[s:e], return_inverse=True)
+            held = np.bincount(where, weights=dur[s:e], minlength=len(names))
+            out.append({"start_s": _num(float(k[s] * interval_s)), "end_s": _num(float((k[s] + 1) * interval_s)),
+                        "duration_s": _num(float(dur[s:e].sum())), "posture": str(names[int(np.argmax(held))]),
+                        "frames": int(e - s), "frames_estimated": int(self.estimated[s:e].sum()),
+                        **self._loads(s, e, dur)})
+        return out
+
+    def _loads(self, s: int, e: int, dur: np.ndarray) -> dict:
+        """Median roll and per-site highest peak and time-weighted mean share of frames s to e
+        (exclusive); dur (T,) the frames' durations."""
+        d = dur[s:e]
+        w = d / d.sum() if d.sum() > 0 else np.full(e - s, 1.0 / (e - s))
+        return {"roll_deg": _num(_median_roll(self.roll_deg[s:e]), 1),
+                "peak_mmhg": {site: _num(float(self.peak_mmhg[s:e, k].max())) for k, site in enumerate(SITES)},
+                "share": {site: _num(float(w @ self.share[s:e, k]), 5) for k, site in enumerate(SITES)}}
+
+    def to_dict(self, interval_s: float = 60.0) -> dict:
+        """:meth:`summary`, the sites, the posture segments (:meth:`segments`) and the recording per
+        ``interval_s`` (:meth:`per_interval`), strict JSON (NaN written as null). The rows of every
+        frame are :meth:`to_csv`'s."""
+        return {**self.summary(), "sites": list(SITES), "interval_s": _num(float(interval_s)),
+                "segments": self.segments(), "per_interval": self.per_interval(interval_s)}
 
     def to_csv(self) -> str:
         """One line per frame: time_s, posture, roll_deg, estimated, then ``<site>_peak_mmhg`` and
@@ -452,7 +490,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
 
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,
-                    head_row: str = "first", chunk: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+                    head_row: str = "first", chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """A recording's frames (T, rows, cols) on ``mat`` (preset, mat.json or MatSpec) as the model's
     input: (T, dst.rows, dst.cols) float32 mmHg and occupied (T,) bool. Frames that carry a body
     take the road every real image takes (:func:`pressurepose.data.readers.recording.read_recording`

@@ -58,11 +58,6 @@ class SamplerConfig:
     (where the paper means them to be: "distal joints ... close to the surface of the bed") instead
     of up to 0.6 m above it (see the sampler's module docstring). Hands-behind-head arms keep their
     own band.
-    max_limb_sink: None (default) or how far a limb capsule may reach below the surface the body lies
-    on, m (the opt-in ``into_bed`` test; e.g. 0.05: the trunk sinks up to ~6.5 cm into the foam and a
-    lightly loaded limb ~1.5-2 cm in the simulated mattress). Neither the paper nor the public code has
-    this test, and on ``general_supine`` it biased the limbs (hip flexion -52 deg mean against the
-    public sampler's -38, see the sampler's module docstring), so it is off unless asked for.
     clearance: start height of the lowest capsule surface above the mattress.
     collision_radius_scale: capsule radii in the self-collision tests, as a multiple of the body's
     capsules (1.2: the public sampler's SMPLify capsules are fuller than ours, see the sampler's
@@ -94,7 +89,6 @@ class SamplerConfig:
     height_band: float = 0.2
     height_reference: str = "proximal"
     bed_height_band: tuple[float, float] = (-0.1, 0.3)
-    max_limb_sink: float | None = None
     clearance: float = 0.015
     mattress: tuple[float, float, float, float] = DEFAULT_MATTRESS
     candidates_per_round: int = 64
@@ -107,15 +101,12 @@ class SamplerConfig:
     poses: PoseFile | None = None
 
     def __post_init__(self):
-        for f in ("beta_range", "yaw_max", "shift_max", "height_band", "max_limb_sink", "clearance", "beta_sd",
+        for f in ("beta_range", "yaw_max", "shift_max", "height_band", "clearance", "beta_sd",
                   "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m",
                   "collision_radius_scale"):
             v = getattr(self, f)
-            if f == "max_limb_sink" and v is None:
-                continue
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                none = " or None" if f == "max_limb_sink" else ""
-                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0{none}")
+                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
         if not self.collision_radius_scale > 0:
             raise BadInput(f"sampler collision_radius_scale is {self.collision_radius_scale!r}; expected a number > 0")
         if self.shapes not in SHAPES:

@@ -47,12 +47,12 @@ from pressurepose.pose.root import (
 from pressurepose.pose.samples import COUNTERS, LIMB_CAUSES
 
 Q = Y_UP_TO_Z_UP
-# capsules whose rest-pose lowest surface is the surface the body lies on (see into_bed)
+# capsules whose rest-pose lowest surface is the surface the body lies on (height_reference 'bed')
 SUPPORT_CAPSULES = tuple(CAPSULE_NAMES.index(n) for n in (
     "pelvis", "spine", "spine1", "spine2", "left_shoulder", "right_shoulder", "left_thigh", "right_thigh"))
 _COL = {name: i for i, name in enumerate(COUNTERS)}
 # cause codes of limb candidates: 0 accepted, i + 1 for LIMB_CAUSES[i]
-_HEIGHT, _BIN, _INTO_BED, _OFF_MATTRESS, _NOT_BEHIND_HEAD, _LIMB_COLLISION = range(1, len(LIMB_CAUSES) + 1)
+_HEIGHT, _BIN, _OFF_MATTRESS, _NOT_BEHIND_HEAD, _LIMB_COLLISION = range(1, len(LIMB_CAUSES) + 1)
 HEAD = joint_index("head")
 # a wedge partition's limbs stay in front of the trunk's back (where the wedge goes), within this
 # tolerance (m): the settle rejects a capsule starting more than 1 cm inside the wedge
@@ -211,13 +211,7 @@ class Run:
         pos, ends = limb_geometry(limb, aa, self.rest[bodies], self.cap_ends[bodies])
         pos, ends = pos[:, 0], ends[:, 0]
         no = np.zeros(len(bodies), dtype=bool)
-        tests = {_INTO_BED: no, _OFF_MATTRESS: no, _NOT_BEHIND_HEAD: no}
-        if cfg.max_limb_sink is not None:
-            m2 = self.M[bodies, 2]  # (N, 3): bed-frame height of an SMPL-frame vector
-            z0 = -np.sum(m2 * self.rest[bodies, 0], axis=-1)  # pelvis at height 0
-            ends_z = np.sum(ends * m2[:, None, None], axis=-1) + z0[:, None, None]  # (N, n_caps, 2)
-            lowest = (ends_z.min(-1) - self.cap_radius[bodies][:, list(limb.capsules)]).min(-1)
-            tests[_INTO_BED] = lowest < self.support[bodies] - cfg.max_limb_sink
+        tests = {_OFF_MATTRESS: no, _NOT_BEHIND_HEAD: no}
         if self.on_bed:
             x0, x1, y0, y1 = cfg.mattress
             if not cfg.hanging_limbs:  # keep clear of the sides: a limb at the edge slides off as it settles

@@ -13,10 +13,6 @@ the joint limits until its candidate passes, in this order (the first failure na
 ``bin``           the distal joint lies in the limb's bin (:mod:`pressurepose.pose.partitions`),
                   counted along the bed's long axis (the posed, yawed body, as the public code
                   measured it: the paper's bins are cuboids of the bed's Cartesian space);
-``into_bed``      opt-in (``SamplerConfig(max_limb_sink=m)``; off by default, as in the paper and
-                  the public code): no capsule of the limb reaches more than m below the surface the
-                  body lies on: the lowest point of the trunk (pelvis, spine, spine1, spine2),
-                  shoulder and thigh capsules with the limbs at rest;
 ``off_mattress``  with ``limbs_on_bed``, the limb's elbow, wrist, hand / knee, ankle, foot joints lie
                   inside the mattress outline;
 ``not_behind_head`` hands-behind-head only: the wrist is medial to its shoulder and within
@@ -59,15 +55,10 @@ reach up to ~3 cm lower than the capsules (measured over 180 bodies: its lowest 
 +11 cm with the capsules at +1.5 cm).
 
 Fidelity to the public sampler (``benchmarks/bench_sampler_fidelity.py`` against its own 2700
-supine female poses, 22 sampled DOFs). Two choices keep the marginals close. The ``into_bed`` test,
-which the public code does not have, is off by default: at 5 cm it rejects 41% of the limb
-candidates that pass height and bin (supine, a bent knee lowers the ankle up to 0.2 m below the
-hip, i.e. ~0.1 m below the back), raising the legs (hip flexion mean -52 deg against -38, W1 14
-deg). Bins count along the bed, not along the body: counted along the body, yaw up to 30 deg moves
-ankles between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5 along the bed). With the test on
-and bins along the body, mean W1 is 4.3 deg instead of 2.4, at 2/3 the sampling rate. Leaving the
-test out costs a little in settling (100 attempts, seed 7, 50 per gender, :func:`pressurepose.sim.simulate.simulate_one`): general_supine
-accepted 94 with it, 87 without (not settled 1 -> 5, posture changed 5 -> 7); general 62 and 60.
+supine female poses, 22 sampled DOFs). Bins count along the bed, not along the body: counted along
+the body, yaw up to 30 deg moves ankles between bins (hip twist W1 ~5 deg, knee flexion ~6; 2-3.5
+along the bed). Like the public code, no test keeps a limb's capsules above the surface the body
+lies on (docs/not-adopted.md: such a test raised the supine legs).
 
 The rest is the body model, not the procedure. SMPL's rest ankle (neutral, betas 0) lies ~5 cm
 behind the hip and 2 cm lateral of it; ours lies level with the hip and 6.4 cm lateral, so the

@@ -82,6 +82,33 @@ def test_manifest_records_the_physics_constants_and_a_resume_under_others_is_ref
         open_output(tmp_path, config)
 
 
+def test_a_manifest_recording_the_retired_max_limb_sink_reads_and_resumes(tmp_path):
+    """Manifests of earlier versions record the sampler's max_limb_sink (None: the limb test off, as
+    every generated dataset had it). Such a manifest reads and its dataset resumes; one recording the
+    test on reads, but a resume is refused, naming the setting."""
+    import json
+
+    from pressurepose.data.pipeline import open_output
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import MANIFEST, Manifest
+    from pressurepose.errors import BadInput
+
+    config = GenerationConfig(partition="general_supine", gender="f", count=2, seed=3)
+    open_output(tmp_path, config)
+    raw = json.loads((tmp_path / MANIFEST).read_text())
+    now = raw["provenance"]
+    assert "max_limb_sink" not in now["sampler"]
+    raw["provenance"] = {**now, "sampler": {**now["sampler"], "max_limb_sink": None}}
+    (tmp_path / MANIFEST).write_text(json.dumps(raw))
+    assert Manifest.load(tmp_path).provenance == now
+    assert open_output(tmp_path, config).provenance == now
+    raw["provenance"]["sampler"]["max_limb_sink"] = 0.05
+    (tmp_path / MANIFEST).write_text(json.dumps(raw))
+    assert Manifest.load(tmp_path).provenance["sampler"]["max_limb_sink"] == 0.05
+    with pytest.raises(BadInput, match=r"sampler.max_limb_sink 0.05 -> None"):
+        open_output(tmp_path, config)
+
+
 def test_a_wedge_partitions_provenance_holds_the_wedges_constants(tmp_path, monkeypatch):
     from pressurepose.data import physics
     from pressurepose.data.schema import GenerationConfig

@@ -133,6 +133,31 @@ def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval(
     assert len(lines[0].split(",")) == 4 + 2 * len(SITES)
 
 
+def test_the_json_record_holds_posture_segments_and_minutes_not_frames():
+    """timeline.json's record: one segment per posture held and one row per minute (posture held
+    longest, highest peak, time-weighted share), a few hundred rows for a night instead of one per
+    frame; the per-frame rows are the CSV's."""
+    t, frames, roll = _night([(0, 3020), (85, 1780), (3, 600)])
+    tl = _read(t, frames, roll, MonitorConfig())
+    k = site_index("sacrum")
+    rec = json.loads(json.dumps(tl.to_dict(), allow_nan=False))
+    assert "frames_table" not in rec and rec["sites"] == list(SITES) and rec["interval_s"] == 60.0
+    assert [(g["posture"], g["start_s"], g["end_s"], g["frames"]) for g in rec["segments"]] == [
+        ("supine", 0.0, 3020.0, 3020), ("left", 3020.0, 4800.0, 1780), ("supine", 4800.0, 5400.0, 600)]
+    assert rec["segments"][1]["roll_deg"] == 85.0 and rec["segments"][1]["peak_mmhg"]["sacrum"] == 0.0
+    assert rec["segments"][0]["peak_mmhg"]["sacrum"] == pytest.approx(tl.peak_mmhg[:3020, k].max(), abs=1e-3)
+    minutes = rec["per_interval"]
+    assert len(minutes) == 90 and [m["start_s"] for m in minutes[:2]] == [0.0, 60.0]
+    assert sum(m["frames"] for m in minutes) == len(t) and sum(m["duration_s"] for m in minutes) == 5400.0
+    turn = minutes[50]  # 3000-3060 s: 20 s supine, 40 s on the left side
+    assert (turn["start_s"], turn["posture"], turn["frames_estimated"]) == (3000.0, "left", 60)
+    assert turn["peak_mmhg"]["sacrum"] == pytest.approx(tl.peak_mmhg[3000:3020, k].max(), abs=1e-3)
+    assert turn["share"]["sacrum"] == pytest.approx(tl.share[3000:3060, k].mean(), abs=1e-5)
+    assert len(tl.per_interval(600.0)) == 9
+    with pytest.raises(BadInput, match="interval_s"):
+        tl.per_interval(0)
+
+
 def test_a_short_dip_under_the_threshold_does_not_relieve_the_skin_and_noise_is_no_load():
     t = np.arange(300.0)
     above = np.ones(300, bool)
@@ -228,7 +253,10 @@ def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, c
     printed = capsys.readouterr().out
     assert "1 turn(s)" in printed and "supine -> left" in printed
     rec = json.loads((out / "timeline.json").read_text())
-    assert [t["after"] for t in rec["turns"]] == ["left"] and len(rec["frames_table"]) == 400
+    assert [t["after"] for t in rec["turns"]] == ["left"] and "frames_table" not in rec
+    assert [g["posture"] for g in rec["segments"]] == ["supine", "left"]
+    assert rec["segments"][1]["first_frame"] == rec["turns"][0]["frame"] and sum(g["frames"] for g in rec["segments"]) == 400
+    assert [r["frames"] for r in rec["per_interval"]] == [60] * 6 + [40] and rec["interval_s"] == 60.0
     assert rec["settings"]["threshold_mmhg"] == 32.0 and rec["alerts"]  # 72 s on the sacrum is past 0.02 h
     assert (out / "night.png").stat().st_size > 0
     assert len((out / "timeline.csv").read_text().splitlines()) == 401
@@ -240,8 +268,8 @@ def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, c
     assert main(["monitor", str(tmp_path / "frames"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender",
                  "f", "--timestamps", str(tmp_path / "t.txt"), "--out", str(tmp_path / "o2"),
                  "--min-posture-s", "30"]) == 0
-    rec = json.loads((tmp_path / "o2" / "timeline.json").read_text())
-    assert [r["time_s"] for r in rec["frames_table"]][:3] == [0.0, 40.0, 80.0]  # f40 after f0, before f80
+    rows = (tmp_path / "o2" / "timeline.csv").read_text().splitlines()[1:]
+    assert [float(r.split(",")[0]) for r in rows][:3] == [0.0, 40.0, 80.0]  # f40 after f0, before f80
     capsys.readouterr()
     # bad input: no timing, frames of another mat, a gap in time, a weightless raw recording
     assert main(args) == 2

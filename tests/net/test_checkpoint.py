@@ -186,3 +186,20 @@ def test_the_shipped_model_passes_the_config_checks():
     config = NetConfig.from_dict(read_model_files(DEFAULT_MODEL)[0]["config"])
     assert config.inputs.upsample == 2 and config.grid.shape == (64, 27) and len(config.outputs.angle_lower) == 69
     assert NetConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config
+
+
+def test_the_shipped_models_training_record_names_only_settings_training_knows():
+    """The shipped model's ``train`` record is the TrainConfig it was trained with: every field it names
+    is one TrainConfig (and its NoiseConfig) has, and the record builds that config back unchanged."""
+    from pressurepose.net.checkpoint import read_model_files
+    from pressurepose.net.infer import DEFAULT_MODEL
+    from pressurepose.net.noise import NoiseConfig
+    from pressurepose.net.train import TrainConfig
+
+    record = read_model_files(DEFAULT_MODEL)[0]["train"]
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    assert set(record) <= known, sorted(set(record) - known)
+    noise = record["noise_config"]
+    assert set(noise) <= {f.name for f in dataclasses.fields(NoiseConfig)}, sorted(noise)
+    config = TrainConfig(**{**record, "noise_config": NoiseConfig(**noise)})
+    assert {k: v for k, v in json.loads(json.dumps(config.to_dict())).items() if k in record} == record

@@ -156,28 +156,37 @@ def _check_readings(path: Path, line: int, tokens: list[str], values: np.ndarray
 
 
 def read_frame_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
-    """All frames (F, rows, cols) of a text recording holding one frame a line (``rows * cols``
+    """All frames (F, rows, cols) float32 of a text recording holding one frame a line (``rows * cols``
     readings separated by tabs or spaces, row-major; blank lines skipped), as stored: PMD
-    experiment I's layout."""
+    experiment I's layout. The file is read a line at a time (a night of frames is not held as
+    text), and the frames are kept in float32, the precision images are kept in."""
     path = Path(path)
     rows, cols = shape
-    frames = []
-    for k, line in enumerate(_read_text(path).splitlines(), start=1):
-        if not line.strip():
-            continue
-        tokens = line.split()
-        try:
-            values = np.array(tokens, dtype=np.float64)
-        except ValueError:
-            raise BadInput(f"{path} line {k}: not all readings are numbers") from None
-        _check_readings(path, k, tokens, values)
-        if values.size != rows * cols:
-            raise BadInput(f"{path} line {k} has {values.size} readings; expected {rows * cols} (one {rows} x {cols} "
-                           f"frame)")
-        frames.append(values.reshape(shape))
-    if not frames:
+    try:
+        with path.open(encoding="utf-8") as fh:  # first the frames' count, so they are stored once
+            count = sum(1 for line in fh if line.strip())
+        frames = np.empty((count, rows, cols), dtype=np.float32)
+        f = 0
+        with path.open(encoding="utf-8") as fh:
+            for k, line in enumerate(fh, start=1):
+                tokens = line.split()
+                if not tokens:
+                    continue
+                try:
+                    values = np.array(tokens, dtype=np.float64)
+                except ValueError:
+                    raise BadInput(f"{path} line {k}: not all readings are numbers") from None
+                _check_readings(path, k, tokens, values)
+                if values.size != rows * cols:
+                    raise BadInput(f"{path} line {k} has {values.size} readings; expected {rows * cols} (one {rows} x "
+                                   f"{cols} frame)")
+                frames[f] = values.reshape(shape)
+                f += 1
+    except (OSError, UnicodeError) as exc:
+        raise BadInput(f"{path}: cannot read as utf-8 text ({exc})") from None
+    if not count:
         raise BadInput(f"{path} holds no frames")
-    return np.stack(frames)
+    return frames
 
 
 def read_pmd_i_file(path: str | Path) -> np.ndarray:
