@@ -24,6 +24,13 @@ A sample is rejected, and the cause counted, when it:
 * ``unstable``: produces non-finite numbers, a MuJoCo warning or a capsule faster than 5 m/s;
 * ``fell_off_bed``: its centre of mass leaves the mattress outline, or its pelvis drops more than
   ``fall_depth_m`` below the mattress top;
+* ``limb_off_bed``: (only when asked, ``hang_depth_m``) hangs a limb over the mattress's edge: a
+  limb joint (:data:`pressurepose.sim.simulate.LIMB_JOINTS`) beyond the outline and more than
+  ``hang_depth_m`` below its top, checked with the posture. The caller's test of the resting body
+  (:func:`pressurepose.sim.simulate.limb_off_bed`) names the same cause; a hanging limb does not
+  come back (over the partitions with such rejections, every attempt that met the test at a check
+  still met it at rest, or was rejected for another cause first), so the attempt stops where
+  the limb first hangs: 0.4-0.9 of the steps it ran before to reach its rest;
 * ``posture_changed``: leaves the posture class (supine / left or right lateral / prone) it started
   in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
   early instead of running on until it rests or falls off), or rests in another class (with a
@@ -60,7 +67,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for
+from pressurepose.body.capsules import CAPSULE_JOINTS, CAPSULE_NAMES, capsules_for
+from pressurepose.body.joints import PARENTS
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, shaped_rest
 from pressurepose.body.masses import segment_masses
 from pressurepose.errors import BadInput
 from pressurepose.pose.posture import (
@@ -85,10 +94,11 @@ from pressurepose.sim.ragdoll import (
 from pressurepose.sim.settle_config import SettleConfig
 from pressurepose.sim.settle_model import SettleModel, capsule_ends
 from pressurepose.sim.settle_stiffness import settle_stiffness
+from pressurepose.sim.simulate import LIMB_JOINTS
 from pressurepose.sim.wedge import Wedge, wedge_behind
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",
-            "support_overlap")
+            "support_overlap", "limb_off_bed")
 SUPPORT_OVERLAP_M = 0.01  # a capsule this deep in the wedge where the body starts: rejected
 PELVIS = CAPSULE_NAMES.index("pelvis")
 _WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -163,7 +173,7 @@ def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollInde
 
 def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
            config: SettleConfig | None = None, *, params: RagdollParams | None = None,
-           wedge: bool = False) -> SettleResult:
+           wedge: bool = False, hang_depth_m: float | None = None) -> SettleResult:
     """Rest one body on the bed; see the module docstring for the procedure and rejection causes.
 
     body: a ``BodyModel``; betas (S,); pose (72,) SMPL axis-angle; transl (3,) m, z-up bed frame
@@ -171,7 +181,9 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
     ``config.drop_clearance_m`` above the mattress); gender: mass table and mean mass (default the
     body's); bed: a ``BedSpec`` (default ``get_bed()``); config: :class:`SettleConfig`; params: a
     precomputed :class:`RagdollParams` for this body and shape (default built here); wedge: prop
-    the body with a foam wedge behind its back (:func:`pressurepose.sim.wedge.wedge_behind`).
+    the body with a foam wedge behind its back (:func:`pressurepose.sim.wedge.wedge_behind`);
+    hang_depth_m: m, stop as ``limb_off_bed`` when a limb joint lies beyond the mattress's outline
+    and more than this below its top (None: limbs may hang).
     """
     bed = get_bed() if bed is None else bed
     config = SettleConfig() if config is None else config
@@ -189,7 +201,8 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck,
                                 spine_stiffness=config.spine_stiffness)
     sm = cached_model(bed, config, params, support=wedge)
-    return _run(sm, params, betas, g, pose, transl)
+    hang = None if hang_depth_m is None else _HangTest(body, betas, bed, float(hang_depth_m), sm.ragdoll)
+    return _run(sm, params, betas, g, pose, transl, hang)
 
 
 class _BallLimits:
@@ -227,8 +240,32 @@ class _BallLimits:
         self.active = check
 
 
+class _HangTest:
+    """Whether a limb hangs over the mattress's edge, from the ragdoll's bodies: the limb joints with a
+    capsule (knees, ankles, elbows, wrists) are their bodies' origins; the feet and hands (SMPL's
+    foot and hand joints, no capsule of their own) their rest offsets from the ankle and wrist,
+    turned with those bodies. The same joints as ``BodyModel.forward`` gives for the ragdoll's pose."""
+
+    def __init__(self, body, betas: np.ndarray, bed: BedSpec, depth_m: float, index: RagdollIndex):
+        _, rest = shaped_rest(body.arrays, np.asarray(betas)[None])
+        rest = rest[0] @ Y_UP_TO_Z_UP.T  # (24, 3) z-up
+        own = [j for j in LIMB_JOINTS if j in CAPSULE_JOINTS]
+        tips = [j for j in LIMB_JOINTS if j not in CAPSULE_JOINTS]
+        self.own = index.body[[CAPSULE_JOINTS.index(j) for j in own]]
+        self.tip_parent = index.body[[CAPSULE_JOINTS.index(PARENTS[j]) for j in tips]]
+        self.tip_offset = np.stack([rest[j] - rest[PARENTS[j]] for j in tips])  # (T, 3)
+        self.bounds, self.depth = bed.mattress_bounds, depth_m
+
+    def __call__(self, data: mujoco.MjData) -> bool:
+        rot = data.xmat[self.tip_parent].reshape(-1, 3, 3)
+        p = np.concatenate([data.xpos[self.own], data.xpos[self.tip_parent] + (rot @ self.tip_offset[..., None])[..., 0]])
+        x0, x1, y0, y1 = self.bounds
+        beyond = (p[:, 0] < x0) | (p[:, 0] > x1) | (p[:, 1] < y0) | (p[:, 1] > y1)
+        return bool(np.any(beyond & (p[:, 2] < -self.depth)))
+
+
 def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str, pose: np.ndarray,
-         transl: np.ndarray) -> SettleResult:
+         transl: np.ndarray, hang: _HangTest | None = None) -> SettleResult:
     cfg, m, d, ri = sm.config, sm.model, sm.data, sm.ragdoll
     sm.configure(params, pose, transl)
     nv = sm.nv
@@ -284,6 +321,9 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
             if step % cfg.posture_check_steps == 0:
                 if not kept(float(roll_of_rotation(d.xmat[ri.body[0]].reshape(3, 3)))):
                     status = "posture_changed"
+                    break
+                if hang is not None and hang(d):
+                    status = "limb_off_bed"
                     break
             com = d.subtree_com[ri.body[0]]
             if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or ends[PELVIS, :, 2].min() < pelvis_floor:

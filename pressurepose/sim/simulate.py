@@ -129,8 +129,9 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
                  settle_config=None) -> Simulated | Rejected:
     """One attempt: a :class:`Simulated` body, or :class:`Rejected` when settling fails (the
     settle's status), when pressing fails (``press_failed``) or when a limb hangs over the
-    mattress's edge at rest (``limb_off_bed``, :func:`limb_off_bed`) and the sampler does not allow
-    hanging limbs. All randomness comes from
+    mattress's edge (``limb_off_bed``, :func:`limb_off_bed`) and the sampler does not allow
+    hanging limbs: tested while the body settles (it stops where the limb first hangs, see
+    :mod:`pressurepose.sim.settle`) and on the resting body. All randomness comes from
     ``rng``. ``sampler``: the pose sampler's :class:`~pressurepose.pose.config.SamplerConfig`
     (default: its defaults). ``conditions`` (:class:`~pressurepose.sim.randomize.Conditions`):
     settle on ``bed``, then press and read the body on ``conditions.bed(bed)``, the mat moved under
@@ -151,12 +152,12 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     from pressurepose.sim.wedge import relieved_body, with_wedge
 
     clock = {} if timings is None else timings
+    sampler = SamplerConfig() if sampler is None else sampler
     t0 = time.process_time()
-    drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body,
-                       config=SamplerConfig() if sampler is None else sampler)
+    drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body, config=sampler)
     t1 = time.process_time()
     rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, config=settle_config,
-                  wedge=get_partition(partition).wedge)
+                  wedge=get_partition(partition).wedge, hang_depth_m=None if sampler.hanging_limbs else HANG_DEPTH_M)
     t2 = time.process_time()
     clock.update(sample=t1 - t0, settle=t2 - t1, press=0.0, steps=int(rest.steps))
     if not rest.ok:
@@ -164,7 +165,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
         moved = f", ended {rest.posture}" if rest.posture != rest.posture_start else ""
         return Rejected(rest.status, f"{steps}, started {rest.posture_start}{moved}")
     verts, joints = body.forward(rest.betas, rest.pose, rest.transl)
-    if not (SamplerConfig() if sampler is None else sampler).hanging_limbs and limb_off_bed(joints[0], bed):
+    if not sampler.hanging_limbs and limb_off_bed(joints[0], bed):
         return Rejected("limb_off_bed")
     pose, transl, press_bed = rest.pose, rest.transl, bed
     wedge, points = rest.wedge, rest.wedge_points

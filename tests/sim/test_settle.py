@@ -206,6 +206,38 @@ def test_joint_limits_hold_legs_hanging_over_the_foot_end(body):
     assert np.all(inside[lim.limited[1:]])
 
 
+def test_a_limb_that_will_hang_stops_the_settle_where_it_first_hangs(body):
+    """Hips at the foot edge: run to rest, the legs hang (the resting body fails ``limb_off_bed``);
+    asked to test hanging limbs, the settle stops as ``limb_off_bed`` at the check where they first
+    hang, in fewer steps, and the joints there hang as the resting body's test counts them."""
+    from pressurepose.sim.simulate import HANG_DEPTH_M, limb_off_bed
+
+    pose = lying()
+    _, joints = body.forward(BETAS, pose, np.zeros(3))
+    x0, x1, y0, y1 = BED.mattress_bounds
+    transl = np.array([(x0 + x1) / 2 - joints[0, 0, 0], y1 - 0.03 - joints[0, 1, 1], 0.3])
+    full = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    assert full.status == "settled"
+    assert limb_off_bed(body.forward(full.betas, full.pose, full.transl)[1][0], BED)
+    early = settle(body, BETAS, pose, transl, "female", BED, FAST, hang_depth_m=HANG_DEPTH_M)
+    assert early.status == "limb_off_bed"
+    assert early.steps < full.steps and early.steps % FAST.posture_check_steps == 0
+    assert limb_off_bed(body.forward(early.betas, early.pose, early.transl)[1][0], BED)
+
+
+def test_the_hanging_limb_test_leaves_a_resting_body_as_it_was(body, supine):
+    """The test only reads the state: a body whose limbs stay on the bed rests bit for bit where it
+    rests without it."""
+    from pressurepose.sim.simulate import HANG_DEPTH_M
+
+    pose, transl, res = supine
+    tested = settle(body, BETAS, pose, transl, "female", BED, FAST, hang_depth_m=HANG_DEPTH_M)
+    assert tested.status == res.status == "settled" and tested.steps == res.steps
+    np.testing.assert_array_equal(tested.pose, res.pose)
+    np.testing.assert_array_equal(tested.transl, res.transl)
+    np.testing.assert_array_equal(tested.capsules, res.capsules)
+
+
 def test_body_dropped_beside_the_bed_falls_off(body):
     pose = lying()
     x0, x1, y0, y1 = BED.mattress_bounds
