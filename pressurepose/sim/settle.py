@@ -25,7 +25,7 @@ A sample is rejected, and the cause counted, when it:
 * ``fell_off_bed``: its centre of mass leaves the mattress outline, or its pelvis drops more than
   ``fall_depth_m`` below the mattress top;
 * ``limb_off_bed``: (only when asked, ``hang_depth_m``) hangs a limb over the mattress's edge: a
-  limb joint (:data:`pressurepose.sim.simulate.LIMB_JOINTS`) beyond the outline and more than
+  limb joint (:data:`pressurepose.sim.settle_config.LIMB_JOINTS`) beyond the outline and more than
   ``hang_depth_m`` below its top, checked with the posture. The caller's test of the resting body
   (:func:`pressurepose.sim.simulate.limb_off_bed`) names the same cause; a hanging limb does not
   come back (over the partitions with such rejections, every attempt that met the test at a check
@@ -91,10 +91,9 @@ from pressurepose.sim.ragdoll import (
     ragdoll_params,
     rotation_to_quat,
 )
-from pressurepose.sim.settle_config import SettleConfig
+from pressurepose.sim.settle_config import LIMB_JOINTS, SettleConfig
 from pressurepose.sim.settle_model import SettleModel, capsule_ends
 from pressurepose.sim.settle_stiffness import settle_stiffness
-from pressurepose.sim.simulate import LIMB_JOINTS
 from pressurepose.sim.wedge import Wedge, wedge_behind
 
 STATUSES = ("settled", "not_settled", "unstable", "fell_off_bed", "posture_changed", "self_collision",

@@ -13,9 +13,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.errors import BadInput
 from pressurepose.sim.springs import LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS
 
+# joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
+LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right")
+                    for j in ("knee", "ankle", "foot", "elbow", "wrist", "hand"))
+# a limb joint this far below the mattress's top beyond its edge hangs (a resting limb's joints lie
+# above the body's lowest surface, which sinks at most ~7 cm into the foam)
+HANG_DEPTH_M = 0.1
 CONES = ("pyramidal", "elliptic")  # MuJoCo's friction cones
 # the settles a dataset can be made with (``GenerationConfig.settle``, ``--settle``; :func:`settle_preset`)
 SETTLES: tuple[str, ...] = ("relaxed", "paper")

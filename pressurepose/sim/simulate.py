@@ -14,25 +14,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.lbs_numpy import (
     Y_UP_TO_Z_UP,
     rodrigues,
     rotation_to_axis_angle,
     shaped_rest,
 )
+from pressurepose.sim.settle_config import HANG_DEPTH_M, LIMB_JOINTS
 
 if TYPE_CHECKING:
     from pressurepose.sim.press import PressResult
     from pressurepose.sim.randomize import Conditions
     from pressurepose.sim.wedge import Wedge
 
-# joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
-LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right")
-                    for j in ("knee", "ankle", "foot", "elbow", "wrist", "hand"))
-# a limb joint this far below the mattress's top beyond its edge hangs (a resting limb's joints lie
-# above the body's lowest surface, which sinks at most ~7 cm into the foam)
-HANG_DEPTH_M = 0.1
 
 
 @dataclass(frozen=True, eq=False)

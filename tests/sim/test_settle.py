@@ -214,7 +214,7 @@ def test_a_limb_that_will_hang_stops_the_settle_where_it_first_hangs(body):
 
     pose = lying()
     _, joints = body.forward(BETAS, pose, np.zeros(3))
-    x0, x1, y0, y1 = BED.mattress_bounds
+    x0, x1, _, y1 = BED.mattress_bounds
     transl = np.array([(x0 + x1) / 2 - joints[0, 0, 0], y1 - 0.03 - joints[0, 1, 1], 0.3])
     full = settle(body, BETAS, pose, transl, "female", BED, FAST)
     assert full.status == "settled"
