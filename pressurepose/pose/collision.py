@@ -14,27 +14,11 @@ from functools import lru_cache
 import mujoco
 import numpy as np
 
-from pressurepose.body.capsules import CAPSULE_JOINTS, CAPSULE_NAMES, NUM_CAPSULES
-from pressurepose.body.joints import PARENTS
+from pressurepose.body.capsules import CAPSULE_NAMES, NUM_CAPSULES
+from pressurepose.body.contact import CHECKED_DEFAULT, collision_pairs
 
 # capsules no sampled limb moves (spine, neck and head are held at 0 while sampling)
 FIXED_CAPSULES: tuple[str, ...] = ("pelvis", "spine", "spine1", "spine2", "neck", "head")
-CHECKED_DEFAULT: tuple[str, ...] = ("left_calf", "right_calf", "left_foot", "right_foot", "left_forearm",
-                                    "right_forearm", "left_hand", "right_hand")
-
-
-def adjacent(a: int, b: int) -> bool:
-    """True if capsules a and b ride on joints that are parent and child."""
-    ja, jb = CAPSULE_JOINTS[a], CAPSULE_JOINTS[b]
-    return PARENTS[ja] == jb or PARENTS[jb] == ja
-
-
-def collision_pairs(checked: tuple[str, ...] = CHECKED_DEFAULT) -> tuple[tuple[int, int], ...]:
-    """Sorted capsule index pairs (a < b) to test: each checked capsule against every capsule other
-    than itself and those adjacent to it."""
-    idx = [CAPSULE_NAMES.index(n) for n in checked]
-    pairs = {tuple(sorted((c, d))) for c in idx for d in range(NUM_CAPSULES) if d != c and not adjacent(c, d)}
-    return tuple(sorted(pairs))
 
 
 def limb_pairs(limb_capsules: tuple[int, ...], checked: tuple[str, ...] = CHECKED_DEFAULT,
@@ -46,22 +30,6 @@ def limb_pairs(limb_capsules: tuple[int, ...], checked: tuple[str, ...] = CHECKE
     own = set(limb_capsules)
     return tuple((a, b) if a in own else (b, a) for a, b in collision_pairs(checked)
                  if (a in own and (b in own or b in fixed)) or (b in own and a in fixed))
-
-
-def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> np.ndarray:
-    """Distance (...) between segments p1-q1 and p2-q2 (each (..., 3)): closest points by clamping
-    the unconstrained solution onto the segments (Ericson, Real-Time Collision Detection 5.1.9)."""
-    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
-    a = np.maximum(np.sum(d1 * d1, -1), 1e-18)
-    e = np.maximum(np.sum(d2 * d2, -1), 1e-18)
-    b, c, f = np.sum(d1 * d2, -1), np.sum(d1 * r, -1), np.sum(d2 * r, -1)
-    denom = a * e - b * b
-    s = np.where(denom > 1e-12 * a * e, np.clip((b * f - c * e) / np.where(denom > 0, denom, 1.0), 0, 1), 0.0)
-    t = (b * s + f) / e
-    s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
-    t = np.clip(t, 0, 1)
-    gap = p1 + d1 * s[..., None] - p2 - d2 * t[..., None]
-    return np.sqrt(np.sum(gap * gap, -1))
 
 
 def _quat_z_to(axis: np.ndarray) -> np.ndarray:

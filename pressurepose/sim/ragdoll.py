@@ -26,7 +26,7 @@ fitted ones reach past the sides of the body's mesh (1-6 cm for the average fema
 body would rest on those caps, outside its own surface, with its centre of mass raised by as much
 above a round support: of 436 lateral starts of ``general`` (two seeds, 200 bodies each per gender)
 73 % rolled over. So each trunk capsule's *contact* geom is shortened to the mesh's half-width
-around it (:func:`trunk_contact_lengths`; then 59 % rolled); its mass and inertia, and the capsule
+around it (:func:`~pressurepose.body.contact.trunk_contact_lengths`; then 59 % rolled); its mass and inertia, and the capsule
 the settle reports, stay the fitted capsule's.
 """
 
@@ -45,8 +45,9 @@ from pressurepose.body.capsules import (
     Capsules,
     capsules_for,
 )
-from pressurepose.body.joints import JOINT_NAMES, NUM_JOINTS, PARENTS
-from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rest_joints, shaped_rest
+from pressurepose.body.contact import CHECKED_DEFAULT, trunk_contact_lengths
+from pressurepose.body.joints import NUM_JOINTS, PARENTS
+from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, shaped_rest
 from pressurepose.body.masses import (
     CapsuleMasses,
     joint_frame_mass_properties,
@@ -74,17 +75,7 @@ HINGE_AXIS = {4: 0, 5: 0, 18: 1, 19: 1}
 # the pose sampler's self-collision check has it; the trunk capsules do not collide with each other
 # (they overlap by design).
 BED_BIT, LIMB_BIT = 1, 2
-# Trunk capsule -> the SMPL joints whose skinned vertices make up the body's side around it (the
-# pelvis takes the hips' vertices, which form the side of the hips; the chest takes the collars').
-TRUNK_SIDE_JOINTS = {
-    CAPSULE_NAMES.index("pelvis"): ("pelvis", "left_hip", "right_hip", "spine1"),
-    CAPSULE_NAMES.index("spine"): ("pelvis", "left_hip", "right_hip", "spine1", "spine2"),
-    CAPSULE_NAMES.index("spine1"): ("spine1", "spine2", "spine3", "left_collar", "right_collar"),
-    CAPSULE_NAMES.index("spine2"): ("spine2", "spine3", "neck", "left_collar", "right_collar"),
-}
-MIN_CONTACT_LENGTH_M = 1e-3
-SELF_COLLIDING = ("left_calf", "right_calf", "left_foot", "right_foot", "left_forearm", "right_forearm",
-                  "left_hand", "right_hand")
+SELF_COLLIDING = CHECKED_DEFAULT  # the capsules the sampler's test and the settle's start test check
 
 
 def home_pose() -> np.ndarray:
@@ -202,32 +193,6 @@ def capsule_parents() -> np.ndarray:
             p = PARENTS[p]
         out.append(index[p] if p >= 0 else -1)
     return np.array(out)
-
-
-def trunk_contact_lengths(body, betas, caps: Capsules) -> np.ndarray:
-    """(20,) m: cylinder lengths of the capsules' contact geoms for shape ``betas`` (S,).
-
-    A trunk capsule (:data:`TRUNK_SIDE_JOINTS`) is shortened so that its caps end at the side of the
-    body's rest mesh: the farthest vertex, along the capsule's axis, among those skinned mostly to
-    the capsule's trunk joints and lying within one radius of its axis (at least
-    ``MIN_CONTACT_LENGTH_M``: MuJoCo needs a cylinder part). Never lengthened; the limb
-    capsules keep their length. A body without such vertices (e.g. a coarse toy) keeps every length.
-    Every length is at least ``MIN_CONTACT_LENGTH_M``: for extreme shapes the capsule regressor gives
-    a neck of zero length, which MuJoCo refuses.
-    """
-    v, J = rest_joints(body.arrays, np.asarray(betas, dtype=np.float64)[None])
-    v, J = v[0], J[0]
-    owner = np.asarray(body.arrays.weights).argmax(axis=1)
-    out = np.asarray(caps.length, dtype=np.float64).copy()
-    for k, names in TRUNK_SIDE_JOINTS.items():
-        R = caps.rest_transform[k, :3, :3]
-        local = (v - J[CAPSULE_JOINTS[k]] - caps.rest_transform[k, :3, 3]) @ R  # capsule frame
-        near = np.isin(owner, [JOINT_NAMES.index(n) for n in names]) & (np.hypot(local[:, 0], local[:, 1])
-                                                                          < caps.radius[k])
-        if near.any():
-            half_width = np.abs(local[near, 2]).max()
-            out[k] = min(out[k], max(2.0 * (half_width - caps.radius[k]), MIN_CONTACT_LENGTH_M))
-    return np.maximum(out, MIN_CONTACT_LENGTH_M)
 
 
 def ragdoll_params(body, betas, gender: str | None = None, *, caps: Capsules | None = None,

@@ -35,7 +35,8 @@ A sample is rejected, and the cause counted, when it:
   in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
   early instead of running on until it rests or falls off), or rests in another class (with a
   wedge: leaves 5-100 degrees of roll on the side it started on);
-* ``self_collision``: starts with capsules of its limbs inside other capsules (the sampler's job);
+* ``self_collision``: starts with capsules of its limbs more than ``self_collision_tol_m`` inside other
+  capsules (:func:`pressurepose.body.contact.start_overlap`, which the sampler applies too);
 * ``support_overlap``: (with a wedge) starts with a capsule more than 1 cm inside the wedge (a
   limb behind the back where the wedge goes).
 
@@ -68,6 +69,7 @@ import mujoco
 import numpy as np
 
 from pressurepose.body.capsules import CAPSULE_JOINTS, CAPSULE_NAMES, capsules_for
+from pressurepose.body.contact import start_overlap
 from pressurepose.body.joints import PARENTS
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, shaped_rest
 from pressurepose.body.masses import segment_masses
@@ -158,16 +160,6 @@ def cached_model(bed: BedSpec, config: SettleConfig, params: RagdollParams, supp
         _MODELS[key] = SettleModel(bed, config, params, settle_stiffness(bed, config) if k is None else k,
                                    bool(support))
     return _MODELS[key]
-
-
-def _self_overlap(model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex, tol: float) -> bool:
-    """True if two capsules penetrate deeper than tol (from the contacts of the last mj_forward; only
-    pairs that may collide, limbs against the rest, make contacts)."""
-    if data.ncon == 0:
-        return False
-    geom = data.contact.geom[: data.ncon]
-    ours = np.isin(geom, index.geom).all(axis=1)
-    return bool(np.any(ours & (data.contact.dist[: data.ncon] < -tol)))
 
 
 def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
@@ -290,7 +282,7 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     touch, hold, step = -1, 0, 0
     prev_ends = prev_move = None
     wedge = _place_wedge(sm, params) if sm.support_geom >= 0 else None
-    if _self_overlap(m, d, ri, cfg.self_collision_tol_m):
+    if cfg.self_collision and start_overlap(capsule_ends(m, d, ri), m.geom_size[ri.geom, 0], cfg.self_collision_tol_m):
         status = "self_collision"
     elif wedge is not None and _in_support(sm):
         status = "support_overlap"

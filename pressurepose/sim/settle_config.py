@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pressurepose.body.contact import START_OVERLAP_TOL_M
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.errors import BadInput
 from pressurepose.sim.springs import LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS
@@ -85,7 +86,7 @@ class SettleConfig:
     tolerance: float = 1e-8
     max_speed_m_s: float = 5.0
     fall_depth_m: float = 0.25
-    self_collision_tol_m: float = 0.002
+    self_collision_tol_m: float = START_OVERLAP_TOL_M
     posture_check_steps: int = 10
     relaxed_neck: bool = True
     spine_stiffness: float | None = RELAXED_SPINE_STIFFNESS
