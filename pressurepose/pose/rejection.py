@@ -392,7 +392,7 @@ class Run:
                     self.counts[i, _COL["bins_redrawn"]] += len(self.leg_limbs)
         return np.sort(np.concatenate(done)) if done else idx
 
-    def _posed(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _posed_bodies(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Poses (N, 72), bed-frame joints (N, 24, 3) and z-up world rotations (N, 24, 3, 3) of bodies
         idx with their chosen limbs, and their translations (N, 3) (before lowering)."""
         pose = self._assemble_pose(idx)
@@ -418,7 +418,7 @@ class Run:
             idx = self._sample_limbs(self.arm_limbs, idx)
             if not self.start_arm_pairs or not idx.size:
                 break
-            _, pos, Wj, _ = self._posed(idx)
+            _, pos, Wj, _ = self._posed_bodies(idx)
             ok = np.array([not start_overlap(capsule_endpoints(self.contact_caps[i], pos[p:p + 1], Wj[p:p + 1])[0],
                                              self.cap_radius[i], pairs=self.start_arm_pairs)
                            for p, i in enumerate(idx)], dtype=bool)
@@ -432,7 +432,7 @@ class Run:
     def _check(self, idx: np.ndarray) -> np.ndarray:
         """Self-collision of whole poses of bodies idx; fills accepted bodies' outputs (lowered to
         ``clearance`` above the mattress); returns the accepted mask."""
-        pose, pos, Wj, transl = self._posed(idx)
+        pose, pos, Wj, transl = self._posed_bodies(idx)
         np.add.at(self.counts[:, _COL["full_poses"]], idx, 1)
         accepted = np.zeros(len(idx), dtype=bool)
         for p, i in enumerate(idx):

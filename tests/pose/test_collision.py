@@ -5,13 +5,8 @@ import numpy as np
 import pytest
 
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, posed_capsules
-from pressurepose.pose.collision import (
-    CHECKED_DEFAULT,
-    SelfCollision,
-    collision_pairs,
-    limb_pairs,
-    segment_distance,
-)
+from pressurepose.body.contact import CHECKED_DEFAULT, collision_pairs, segment_distance
+from pressurepose.pose.collision import SelfCollision, limb_pairs
 from pressurepose.pose.limbs import LIMBS
 
 N = CAPSULE_NAMES.index

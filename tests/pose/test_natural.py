@@ -5,11 +5,16 @@ import pytest
 
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import capsule_endpoints, capsules_for, joint_frames
+from pressurepose.body.contact import segment_distance
 from pressurepose.body.joints import joint_index, mirror_permutation
 from pressurepose.errors import BadInput
 from pressurepose.pose import SamplerConfig, sample_bodies
-from pressurepose.pose.collision import checker, segment_distance
-from pressurepose.pose.fidelity import END_JOINTS, end_joint_distances, pelvis_frame_joints
+from pressurepose.pose.collision import checker
+from pressurepose.pose.fidelity import (
+    END_JOINTS,
+    end_joint_distances,
+    pelvis_frame_joints,
+)
 from pressurepose.pose.limits import joint_limits
 from pressurepose.pose.natural import (
     ASSET,

@@ -8,6 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import CAPSULE_NAMES, capsules_for, posed_capsules
+from pressurepose.body.contact import MIN_CONTACT_LENGTH_M, TRUNK_SIDE_JOINTS
 from pressurepose.body.joints import joint_index
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.errors import BadInput
@@ -165,12 +166,12 @@ def test_trunk_contact_ends_at_the_side_of_the_mesh(gender):
     for betas in (np.zeros(10), np.r_[3.0, -3.0, np.zeros(8)], np.r_[-3.0, 3.0, np.zeros(8)]):
         caps = capsules_for(body, betas)
         p = rd.ragdoll_params(body, betas, gender, caps=caps)
-        trunk = sorted(rd.TRUNK_SIDE_JOINTS)
-        limbs = [k for k in range(20) if k not in rd.TRUNK_SIDE_JOINTS]
+        trunk = sorted(TRUNK_SIDE_JOINTS)
+        limbs = [k for k in range(20) if k not in TRUNK_SIDE_JOINTS]
         np.testing.assert_array_equal(p.contact_length[limbs], p.length[limbs])
         assert np.all(p.contact_length[trunk] < p.length[trunk])  # every trunk capsule sticks out
         v, _ = body.forward(betas, np.zeros(72))  # rest pose, centred on x = 0
-        side_joints = [joint_index(n) for names in rd.TRUNK_SIDE_JOINTS.values() for n in names]
+        side_joints = [joint_index(n) for names in TRUNK_SIDE_JOINTS.values() for n in names]
         half_width = np.abs(v[0, np.isin(body.arrays.weights.argmax(1), side_joints), 0]).max()
         tips = (p.contact_length / 2 + p.radius)[trunk]
         assert np.all(tips <= half_width + 1e-3)
@@ -311,7 +312,7 @@ def test_an_extreme_shape_with_a_zero_length_neck_still_builds():
     neck = CAPSULE_NAMES.index("neck")
     assert caps.length[neck] <= 0.0  # the case this guards
     p = rd.ragdoll_params(body, betas, "male", caps=caps)
-    assert np.all(p.contact_length >= rd.MIN_CONTACT_LENGTH_M)
+    assert np.all(p.contact_length >= MIN_CONTACT_LENGTH_M)
     spec = mujoco.MjSpec()
     spec.compiler.degree = False
     rd.add_ragdoll(spec, p)

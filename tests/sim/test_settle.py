@@ -499,3 +499,32 @@ def test_the_step_budget_is_kept_in_seconds_with_a_coarse_step(body, supine):
     fine_steps = res.touch_step + budget.coarse_after_steps
     expected = fine_steps + (budget.max_steps - fine_steps) / 2  # the rest of 1.5 s at 0.02 s
     assert abs(res.steps - expected) <= 1
+
+
+def test_the_start_test_is_what_mujoco_finds_between_the_ragdolls_capsules(body):
+    """The settle's start test (pressurepose.body.contact.start_overlap) against MuJoCo's own contacts
+    of the compiled ragdoll (any pair of ragdoll geoms deeper than the tolerance), over arms and legs
+    swung at random: the same verdict, and both verdicts occur."""
+    import mujoco
+
+    from pressurepose.body.contact import start_overlap
+    from pressurepose.sim.settle import cached_model
+    from pressurepose.sim.settle_model import capsule_ends
+
+    params = ragdoll_params(body, BETAS, "female")
+    sm = cached_model(BED, FAST, params)
+    m, d, ri = sm.model, sm.data, sm.ragdoll
+    rng = np.random.default_rng(3)
+    verdicts = []
+    for _ in range(60):
+        pose = lying()
+        for j in (1, 2, 4, 5, 13, 14, 16, 17, 18, 19):  # hips, knees, collars, shoulders, elbows
+            pose[3 * j:3 * j + 3] += rng.normal(0.0, 0.8, 3)
+        sm.configure(params, pose, centre_transl(body, pose))
+        mujoco.mj_forward(m, d)
+        geom = d.contact.geom[:d.ncon]
+        ours = np.isin(geom, ri.geom).all(axis=1)
+        by_mujoco = bool(np.any(ours & (d.contact.dist[:d.ncon] < -FAST.self_collision_tol_m)))
+        assert bool(start_overlap(capsule_ends(m, d, ri), params.radius, FAST.self_collision_tol_m)) == by_mujoco
+        verdicts.append(by_mujoco)
+    assert 5 < sum(verdicts) < 55
