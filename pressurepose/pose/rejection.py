@@ -20,13 +20,7 @@ from pressurepose.body.capsules import (
     load_regressors,
     regressor_path,
 )
-from pressurepose.body.contact import (
-    START_OVERLAP_TOL_M,
-    START_PAIRS,
-    segment_distance,
-    start_overlap,
-    trunk_contact_lengths,
-)
+from pressurepose.body.contact import START_PAIRS, segment_distance, start_overlap, trunk_contact_lengths
 from pressurepose.body.joints import NUM_BETAS, joint_index
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, forward_kinematics, rodrigues
 from pressurepose.pose.collision import CHECKED_DEFAULT, checker, limb_pairs
@@ -85,12 +79,6 @@ def _body_data(body) -> tuple[np.ndarray, np.ndarray, object]:
     return data
 
 
-def _rest_ends(caps) -> np.ndarray:
-    """(20, 2, 3) capsule axis ends in their joints' rest frames, SMPL axes."""
-    half = 0.5 * caps.length[:, None, None] * np.array([-1.0, 1.0])[None, :, None]
-    return (caps.center[:, None, :] + half * caps.axis[:, None, :]) @ Q  # z-up -> SMPL axes
-
-
 def _pair_index(limb, pairs) -> tuple[np.ndarray, ...]:
     """Index arrays of a limb's checked pairs (a, c) for :meth:`Run._limb_collides`: the capsules a
     and c, a's and c's places among the limb's capsules (0 where c is not the limb's), c's joint, and
@@ -113,31 +101,21 @@ class Run:
         self.boxes = [limb.box(self.limits, part.straight_limbs) for limb in LIMBS]
         self.j_template, j_dirs, self.cap_regressors = _body_data(body)
         self.j_dirs = j_dirs[..., :NUM_BETAS]
-        self.leg_limbs = tuple(li for li, limb in enumerate(LIMBS) if limb.is_leg)
-        self.arm_limbs = tuple(li for li, limb in enumerate(LIMBS) if not limb.is_leg)
         checked = tuple(c for c in CHECKED_DEFAULT if not (part.hands_behind_head and c.endswith("_hand")))
         self.collision = checker(checked)
         self.limb_pairs = [limb_pairs(limb.capsules, checked) for limb in LIMBS]
         self.pair_index = [_pair_index(limb, pairs) for limb, pairs in zip(LIMBS, self.limb_pairs)]
         # the settle's start test (pressurepose.body.contact) on the pairs this test leaves out (the
-        # exempt hands'): per limb those the limb decides alone, per pair of arms those between the
-        # arms, on the whole pose the others
-        self.start_limb_pairs = [tuple(p for p in limb_pairs(limb.capsules) if p not in own)
-                                 for limb, own in zip(LIMBS, self.limb_pairs)]
-        self.start_index = [_pair_index(limb, pairs) for limb, pairs in zip(LIMBS, self.start_limb_pairs)]
-        per_limb = {tuple(sorted(p)) for pairs in self.start_limb_pairs for p in pairs}
-        rest = [p for p in START_PAIRS if p not in set(self.collision.pairs) and p not in per_limb]
-        arms = {c for li in self.arm_limbs for c in LIMBS[li].capsules}
-        self.start_arm_pairs = tuple(p for p in rest if set(p) <= arms)
-        self.start_pairs = tuple(p for p in rest if not set(p) <= arms)
-        self.start_test = bool(per_limb or rest)
+        # exempt hands'), applied to the whole poses this test accepts
+        self.start_pairs = tuple(p for p in START_PAIRS if p not in set(self.collision.pairs))
+        self.leg_limbs = tuple(li for li, limb in enumerate(LIMBS) if limb.is_leg)
+        self.arm_limbs = tuple(li for li, limb in enumerate(LIMBS) if not limb.is_leg)
         n, s = len(rngs), min(NUM_BETAS, body.num_betas)
         self.betas = np.zeros((n, s))
         self.rest = np.zeros((n, 24, 3))
         self.caps = [None] * n
+        self.contact_caps = [None] * n  # the settle's contact geoms (with start pairs to test)
         self.cap_ends = np.zeros((n, 20, 2, 3))  # capsule ends in their joint's rest frame, SMPL axes
-        self.contact_caps = [None] * n  # the settle's contact geoms (with a start test)
-        self.contact_ends = np.zeros((n, 20, 2, 3))  # their ends as cap_ends
         self.cap_radius = np.zeros((n, 20))
         self.col_radius = np.zeros((n, 20))  # radii in the self-collision tests (SamplerConfig.collision_radius_scale)
         self.roll, self.yaw = np.zeros(n), np.zeros(n)
@@ -174,12 +152,12 @@ class Run:
                  + 0.5 * caps.length[head] * abs((caps.axis[head] @ Q)[1]) + caps.radius[head] - self.rest[i, 0, 1])
         self.yaw[i], pelvis_xy = draw_placement(rng, cfg, crown, self.roll[i])
         self.caps[i] = caps
+        if self.start_pairs:
+            self.contact_caps[i] = replace(caps, length=trunk_contact_lengths(self.body, self.betas[i], caps))
         self.cap_radius[i] = caps.radius
         self.col_radius[i] = caps.radius * cfg.collision_radius_scale
-        self.cap_ends[i] = _rest_ends(caps)
-        if self.start_test:
-            self.contact_caps[i] = replace(caps, length=trunk_contact_lengths(self.body, self.betas[i], caps))
-            self.contact_ends[i] = _rest_ends(self.contact_caps[i])
+        half = 0.5 * caps.length[:, None, None] * np.array([-1.0, 1.0])[None, :, None]
+        self.cap_ends[i] = (caps.center[:, None, :] + half * caps.axis[:, None, :]) @ Q  # z-up -> SMPL axes
         self.W[i] = world_rotation(self.roll[i], self.yaw[i])[0]
         self.M[i] = self.W[i] @ Q
         self.pelvis[i] = [*pelvis_xy, 0.0]
@@ -255,14 +233,7 @@ class Run:
             cause[tests[code]] = code
         left = np.flatnonzero(cause == 0)
         if left.size and self.limb_pairs[li]:
-            hit = self._limb_collides(self.pair_index[li], bodies[left], ends[left], self.cap_ends, self.col_radius)
-            cause[left[hit]] = _LIMB_COLLISION
-        left = np.flatnonzero(cause == 0)
-        if left.size and self.start_limb_pairs[li]:
-            _, contact = limb_geometry(limb, aa[left], self.rest[bodies[left]], self.contact_ends[bodies[left]])
-            hit = self._limb_collides(self.start_index[li], bodies[left], contact[:, 0], self.contact_ends,
-                                      self.cap_radius, START_OVERLAP_TOL_M)
-            cause[left[hit]] = _LIMB_COLLISION
+            cause[left[self._limb_collides(li, bodies[left], ends[left])]] = _LIMB_COLLISION
         left = np.flatnonzero(cause == 0)
         if left.size and part.wedge:
             cause[left[self._behind_back(li, bodies[left], ends[left])]] = _LIMB_COLLISION
@@ -278,21 +249,19 @@ class Run:
         span = (ends[..., 1] <= top) & (ends[..., 1] >= top - WEDGE_LENGTH_M)
         return np.any(span & (ends[..., 2] - r < back - WEDGE_CLEARANCE_M), axis=(1, 2))
 
-    def _limb_collides(self, index, bodies: np.ndarray, ends: np.ndarray, cap_ends: np.ndarray,
-                       radius: np.ndarray, tol: float = 0.0) -> np.ndarray:
-        """(N,) True where a limb's capsule penetrates another capsule it alone decides, deeper than tol (m).
+    def _limb_collides(self, li: int, bodies: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """(N,) True where a limb's checked capsule penetrates another capsule it alone decides.
 
-        index: the limb's pairs (:func:`_pair_index`); bodies: (N,) body of each candidate; ends:
-        (N, n_caps, 2, 3) the candidates' limb capsule ends (SMPL frame, no root); cap_ends (n, 20, 2, 3)
-        and radius (n, 20): every body's capsules, the fixed ones resting at their joints.
+        bodies: (N,) body of each candidate; ends: (N, n_caps, 2, 3) the candidates' limb capsule
+        ends (SMPL frame, no root); fixed capsules rest at their joints.
         """
-        a, c, a_in_limb, c_in_limb, c_joint, own = index
+        a, c, a_in_limb, c_in_limb, c_joint, own = self.pair_index[li]
         ea = ends[:, a_in_limb]  # (N, P, 2, 3)
-        fixed = self.rest[bodies][:, c_joint][:, :, None] + cap_ends[bodies][:, c]
+        fixed = self.rest[bodies][:, c_joint][:, :, None] + self.cap_ends[bodies][:, c]
         ec = np.where(own[None, :, None, None], ends[:, c_in_limb], fixed)
         d = segment_distance(ea[..., 0, :], ea[..., 1, :], ec[..., 0, :], ec[..., 1, :])  # (N, P)
-        r = radius[bodies]
-        return np.any(d < r[:, a] + r[:, c] - tol, axis=1)
+        radius = self.col_radius[bodies]
+        return np.any(d < radius[:, a] + radius[:, c], axis=1)
 
     def _sample_limb(self, li: int, idx: np.ndarray) -> np.ndarray:
         """Choose limb li's angles for bodies idx (each body in its own generator's order).
@@ -392,56 +361,37 @@ class Run:
                     self.counts[i, _COL["bins_redrawn"]] += len(self.leg_limbs)
         return np.sort(np.concatenate(done)) if done else idx
 
-    def _posed_bodies(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Poses (N, 72), bed-frame joints (N, 24, 3) and z-up world rotations (N, 24, 3, 3) of bodies
-        idx with their chosen limbs, and their translations (N, 3) (before lowering)."""
+    def _check(self, idx: np.ndarray) -> np.ndarray:
+        """Self-collision of whole poses of bodies idx; fills accepted bodies' outputs (lowered to
+        ``clearance`` above the mattress); returns the accepted mask. A pose that passes, but fails the
+        settle's start test on ``start_pairs``, starts its body afresh (shape, root, shift and bins, as
+        a new attempt would): the settle would have rejected it."""
         pose = self._assemble_pose(idx)
         G = forward_kinematics(rodrigues(pose.reshape(-1, 24, 3)), self.rest[idx], self.body.parents)
         transl = self.pelvis[idx] - self.rest[idx, 0] @ Q.T
-        return pose, G[..., :3, 3] @ Q.T + transl[:, None], Q @ G[..., :3, :3] @ Q.T, transl
-
-    def _collided(self, i: int) -> None:
-        """Count a whole-pose collision of body i; past ``collision_patience`` redraw its shape, root and shift."""
-        self.counts[i, _COL["self_collision"]] += 1
-        self.collisions[i] += 1
-        if self.collisions[i] > self.cfg.collision_patience:
-            self.collisions[i] = 0
-            self._draw_body(i)
-            self.counts[i, _COL["bodies_redrawn"]] += 1
-
-    def _sample_arms(self, idx: np.ndarray) -> np.ndarray:
-        """Draw both arms of bodies idx, again while they fail the settle's start test between the
-        two arms (``start_arm_pairs``; a collision, see :meth:`_collided`); returns the bodies that got
-        them (a body whose shape was redrawn is left out)."""
-        done = []
-        while idx.size:
-            idx = self._sample_limbs(self.arm_limbs, idx)
-            if not self.start_arm_pairs or not idx.size:
-                break
-            _, pos, Wj, _ = self._posed_bodies(idx)
-            ok = np.array([not start_overlap(capsule_endpoints(self.contact_caps[i], pos[p:p + 1], Wj[p:p + 1])[0],
-                                             self.cap_radius[i], pairs=self.start_arm_pairs)
-                           for p, i in enumerate(idx)], dtype=bool)
-            done.append(idx[ok])
-            redrawn = self.collisions[idx[~ok]] >= self.cfg.collision_patience
-            for i in idx[~ok]:
-                self._collided(i)
-            idx = idx[~ok][~redrawn]
-        return np.sort(np.concatenate(done + [idx])) if done else idx
-
-    def _check(self, idx: np.ndarray) -> np.ndarray:
-        """Self-collision of whole poses of bodies idx; fills accepted bodies' outputs (lowered to
-        ``clearance`` above the mattress); returns the accepted mask."""
-        pose, pos, Wj, transl = self._posed_bodies(idx)
+        pos = G[..., :3, 3] @ Q.T + transl[:, None]
+        Wj = Q @ G[..., :3, :3] @ Q.T
         np.add.at(self.counts[:, _COL["full_poses"]], idx, 1)
         accepted = np.zeros(len(idx), dtype=bool)
         for p, i in enumerate(idx):
             caps = self.caps[i]
             ends = capsule_endpoints(caps, pos[p:p + 1], Wj[p:p + 1])[0]
-            if self.collision.collides(ends, self.col_radius[i]) or (self.start_pairs and start_overlap(
-                    capsule_endpoints(self.contact_caps[i], pos[p:p + 1], Wj[p:p + 1])[0], caps.radius,
-                    pairs=self.start_pairs)):
-                self._collided(i)
+            if self.collision.collides(ends, self.col_radius[i]):
+                self.counts[i, _COL["self_collision"]] += 1
+                self.collisions[i] += 1
+                if self.collisions[i] > self.cfg.collision_patience:
+                    self.collisions[i] = 0
+                    self._draw_body(i)
+                    self.counts[i, _COL["bodies_redrawn"]] += 1
+                continue
+            if self.start_pairs and start_overlap(capsule_endpoints(self.contact_caps[i], pos[p:p + 1], Wj[p:p + 1])[0],
+                                                  caps.radius, pairs=self.start_pairs):
+                self.counts[i, _COL["self_collision"]] += 1
+                self.counts[i, _COL["bodies_redrawn"]] += 1
+                self.counts[i, _COL["bins_redrawn"]] += len(LIMBS)
+                self.collisions[i] = self.cross_fails[i] = 0
+                self._draw_body(i)
+                self._draw_bins(i, range(len(LIMBS)))
                 continue
             lift = self.cfg.clearance - np.min(ends[..., 2] - caps.radius[:, None])
             slide = slide_along_bed(pos[p], self.cfg)
@@ -454,6 +404,6 @@ class Run:
     def run(self) -> None:
         pending = np.arange(len(self.rngs))
         while pending.size:
-            active = self._sample_arms(self._sample_legs(pending))
+            active = self._sample_limbs(self.arm_limbs, self._sample_legs(pending))
             done = active[self._check(active)] if active.size else active
             pending = pending[~np.isin(pending, done)]
