@@ -38,6 +38,15 @@ MuJoCo); a colliding body redraws all four limbs with the same bins, and after
 retries, so (but for the redraws above) the accepted bodies' distal joints are spread evenly over
 the bins.
 
+Where that test exempts a capsule (the hands behind the head, which rest against it), a pose it
+passes also takes the settle's start test on the pairs it left out
+(:func:`pressurepose.body.contact.start_overlap`: the ragdoll's contact geoms, their own radii, 2 mm),
+and one that fails starts its body afresh (shape, root, shift and bins, counted as a
+``self_collision``): the new attempt the settle's rejection would have caused, so the accepted
+poses keep the law they had when the settle rejected them (docs/physics.md) and the settle rejects
+none of them. Elsewhere the test checks every pair the settle does, on wider and longer capsules,
+and the start test is not run.
+
 Bed-referenced heights (an option, off by default). The paper keeps each distal joint near its
 proximal joint's height because lying limbs "are more likely to end up close to the surface of the
 bed". That holds for a supine or prone body, whose hips and shoulders lie 0.1-0.2 m above the bed,
