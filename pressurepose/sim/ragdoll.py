@@ -474,11 +474,16 @@ class BallLimits:
             xyz = q[:, 1:]
             s = np.sqrt((xyz * xyz).sum(-1, keepdims=True))
             big = s > 1e-12
-            scale = np.where(big, 2.0 * np.arctan2(s, q[:, :1]) / np.where(big, s, 1.0),
-                             2.0 / np.maximum(q[:, :1], 1e-12))
+            if big.all():
+                scale = 2.0 * np.arctan2(s, q[:, :1]) / s
+            else:
+                scale = np.where(big, 2.0 * np.arctan2(s, q[:, :1]) / np.where(big, s, 1.0),
+                                 2.0 / np.maximum(q[:, :1], 1e-12))
             w = np.multiply(scale, xyz, out=self._w[:, :3])
             r = w @ Q  # local_to_smpl
-            out = check & ((r < self.lower) | (r > self.upper)).any(axis=1)
+            # r - clip(r, lower, upper): nonzero exactly where r is outside the box
+            excess = r - np.minimum(np.maximum(r, self.lower), self.upper)
+            out = (excess != 0.0).any(axis=1) & check
             if not out.any():
                 out = None
         if out is None:
@@ -487,16 +492,19 @@ class BallLimits:
                 self.active = False
             return
         # limit_torques: minus the inverse right Jacobian's transpose times the energy's gradient in w
-        excess = r - np.minimum(np.maximum(r, self.lower), self.upper)
         grad_w = (self.k * excess) @ Q.T
         theta = np.sqrt((w * w).sum(-1))[:, None, None]
         K = np.multiply(np.take(self._w, self._k_col, axis=1, out=self._K), self._k_sign, out=self._K)
         K = K.reshape(-1, 3, 3)
         near = theta > 1e-6
-        t = np.where(near, theta, 1.0)
-        c = np.where(near, 1.0 / t**2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t)), 1.0 / 12.0)
+        if near.all():
+            c = 1.0 / theta**2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta))
+        else:
+            t = np.where(near, theta, 1.0)
+            c = np.where(near, 1.0 / t**2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t)), 1.0 / 12.0)
         tau = -np.einsum("nji,nj->ni", self._eye + 0.5 * K + c * (K @ K), grad_w)
-        tau[~out] = 0.0
+        if not out.all():
+            tau[~out] = 0.0
         qfrc_applied[self.dof] = tau.ravel()
         self.active = True
 
