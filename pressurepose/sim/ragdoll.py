@@ -392,6 +392,88 @@ def limit_torques(w: np.ndarray, lower: np.ndarray, upper: np.ndarray, stiffness
     return -np.einsum("nji,nj->ni", right_jacobian_inv(w), grad_w)
 
 
+class BallLimits:
+    """:func:`limit_torques` on a ragdoll's limited ball joints (those with a stiffness), written into
+    MuJoCo's ``qfrc_applied`` before each step, for all joints at once with arrays of fixed size.
+
+    A joint whose rotation angle is below the distance from 0 to the nearest face of its box cannot
+    be outside it, so only the others are tested; a joint inside its box gets no torque (its
+    ``qfrc_applied`` entries are 0). The arithmetic is :func:`quat_to_rotvec`'s and
+    :func:`limit_torques`' operation for operation, so the torques are theirs to the bit.
+
+    The penalty is explicit and the joint's damping implicit, which is stable while
+    ``dt * factor / damping-per-stiffness < 2`` (the limited joints have the paper's
+    :data:`~pressurepose.sim.springs.DAMPING_PER_STIFFNESS_S`).
+
+    params: the body's :class:`RagdollParams`; index: its :class:`RagdollIndex` in the model;
+    factor: penalty stiffness per joint stiffness (``SettleConfig.limit_stiffness_factor``).
+    """
+
+    def __init__(self, params: RagdollParams, index: RagdollIndex, factor: float):
+        ball = index.ball[params.limited[index.ball] & (params.stiffness[index.ball] > 0)]
+        n = len(ball)
+        self.qpos = index.qpos[ball][:, None] + np.arange(4)  # (n, 4) addresses of the quaternions
+        self.dof = (index.dof[ball][:, None] + np.arange(3)).ravel()  # (3n,) their dofs, joint-major
+        self.lower, self.upper = params.lower[ball], params.upper[ball]  # (n, 3) rad, SMPL axes
+        self.k = (factor * params.stiffness[ball])[:, None]  # (n, 1) N m/rad
+        inside = np.minimum(-self.lower, self.upper)
+        self.safe_cos = np.cos(np.clip(inside.min(axis=1), 0.0, np.pi) / 2)  # cos(half the safe angle)
+        self.active = False  # whether qfrc_applied holds a torque from the last step
+        self._q = np.empty((n, 4))
+        self._w = np.zeros((n, 4))  # rotation vectors in columns 0-2; column 3 stays 0 for K
+        self._K = np.empty((n, 9))
+        # the cross-product matrix K of w, row-major: [[0, -w2, w1], [w2, 0, -w0], [-w1, w0, 0]]
+        self._k_col = np.array([3, 2, 1, 2, 3, 0, 1, 0, 3])
+        self._k_sign = np.array([1.0, -1.0, 1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
+        self._eye = np.eye(3)
+
+    def apply(self, qpos: np.ndarray, qfrc_applied: np.ndarray) -> None:
+        """Write the torques of the state ``qpos`` (MuJoCo's ``data.qpos``) into ``qfrc_applied``
+        (``data.qfrc_applied``)."""
+        q = np.take(qpos, self.qpos, out=self._q)
+        check = np.abs(q[:, 0]) < self.safe_cos  # MuJoCo keeps these quaternions unit
+        out = None
+        if check.any():
+            # quat_to_rotvec
+            q = q * (np.where(q[:, :1] < 0, -1.0, 1.0) / np.sqrt((q * q).sum(-1, keepdims=True)))
+            xyz = q[:, 1:]
+            s = np.sqrt((xyz * xyz).sum(-1, keepdims=True))
+            big = s > 1e-12
+            if big.all():
+                scale = 2.0 * np.arctan2(s, q[:, :1]) / s
+            else:
+                scale = np.where(big, 2.0 * np.arctan2(s, q[:, :1]) / np.where(big, s, 1.0),
+                                 2.0 / np.maximum(q[:, :1], 1e-12))
+            w = np.multiply(scale, xyz, out=self._w[:, :3])
+            r = w @ Q  # local_to_smpl
+            # r - clip(r, lower, upper): nonzero exactly where r is outside the box
+            excess = r - np.minimum(np.maximum(r, self.lower), self.upper)
+            out = (excess != 0.0).any(axis=1) & check
+            if not out.any():
+                out = None
+        if out is None:
+            if self.active:
+                qfrc_applied[self.dof] = 0.0
+                self.active = False
+            return
+        # limit_torques: minus the inverse right Jacobian's transpose times the energy's gradient in w
+        grad_w = (self.k * excess) @ Q.T
+        theta = np.sqrt((w * w).sum(-1))[:, None, None]
+        K = np.multiply(np.take(self._w, self._k_col, axis=1, out=self._K), self._k_sign, out=self._K)
+        K = K.reshape(-1, 3, 3)
+        near = theta > 1e-6
+        if near.all():
+            c = 1.0 / theta**2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta))
+        else:
+            t = np.where(near, theta, 1.0)
+            c = np.where(near, 1.0 / t**2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t)), 1.0 / 12.0)
+        tau = -np.einsum("nji,nj->ni", self._eye + 0.5 * K + c * (K @ K), grad_w)
+        if not out.all():
+            tau[~out] = 0.0
+        qfrc_applied[self.dof] = tau.ravel()
+        self.active = True
+
+
 # ------------------------------------------------------------------------------ pose <-> qpos
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -84,12 +84,10 @@ from pressurepose.pose.posture import (
 from pressurepose.sim.bed import BedSpec, get_bed
 from pressurepose.sim.cellbed import cell_forces, cell_sink
 from pressurepose.sim.ragdoll import (
+    BallLimits,
     RagdollIndex,
     RagdollParams,
-    limit_torques,
-    local_to_smpl,
     qpos_to_pose,
-    quat_to_rotvec,
     ragdoll_params,
     rotation_to_quat,
 )
@@ -196,39 +194,32 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
     return _run(sm, params, betas, g, pose, transl, hang)
 
 
-class _BallLimits:
-    """Applies :func:`limit_torques` to the limited ball joints each step, cheaply: a joint whose
-    rotation angle is below the distance from 0 to the nearest face of its box cannot be outside it.
+class _Ends:
+    """The capsules' axis-segment ends of the current state, (20, 2, 3) m, as :func:`capsule_ends`
+    gives them but in the model's geom order (``pelvis``: the pelvis capsule's row), from views of
+    MuJoCo's arrays taken once, into two buffers used in turn (a call's ends stay valid through the
+    next call)."""
 
-    The penalty is explicit and the joint's damping implicit, which is stable while
-    ``dt * factor / damping-per-stiffness < 2`` (the limited joints have the paper's
-    :data:`~pressurepose.sim.springs.DAMPING_PER_STIFFNESS_S`)."""
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, index: RagdollIndex):
+        lo = int(index.geom.min())
+        hi = lo + len(index.geom)
+        if not np.array_equal(np.sort(index.geom), np.arange(lo, hi)):
+            raise RuntimeError("the ragdoll's geoms must be numbered consecutively")
+        self.pelvis = int(index.geom[PELVIS]) - lo
+        self._centre = data.geom_xpos[lo:hi]
+        self._axis = data.geom_xmat[lo:hi, 2::3]  # the capsules' local z in the world
+        self._half = model.geom_size[lo:hi, 1:2].copy()  # (20, 1) m
+        self._buf = np.empty((2, hi - lo, 2, 3))
+        self._t = np.empty((hi - lo, 3))
+        self._i = 0
 
-    def __init__(self, params: RagdollParams, index: RagdollIndex, factor: float):
-        ball = index.ball[params.limited[index.ball] & (params.stiffness[index.ball] > 0)]
-        self.qpos = index.qpos[ball][:, None] + np.arange(4)
-        self.dof = index.dof[ball][:, None] + np.arange(3)
-        self.lower, self.upper = params.lower[ball], params.upper[ball]
-        self.k = factor * params.stiffness[ball]
-        inside = np.minimum(-self.lower, self.upper)
-        self.safe_cos = np.cos(np.clip(inside.min(axis=1), 0.0, np.pi) / 2)  # cos(half the safe angle)
-        self.active = np.zeros(len(ball), dtype=bool)
-
-    def apply(self, data: mujoco.MjData) -> None:
-        w0 = np.abs(data.qpos[self.qpos[:, 0]])
-        check = w0 < self.safe_cos  # MuJoCo keeps these quaternions unit
-        if check.any():
-            w = quat_to_rotvec(data.qpos[self.qpos[check]])
-            r = local_to_smpl(w)
-            out = np.any((r < self.lower[check]) | (r > self.upper[check]), axis=1)
-            check[check] = out
-            if out.any():
-                data.qfrc_applied[self.dof[check]] = limit_torques(w[out], self.lower[check], self.upper[check],
-                                                                   self.k[check])
-        stale = self.active & ~check
-        if stale.any():
-            data.qfrc_applied[self.dof[stale]] = 0.0
-        self.active = check
+    def __call__(self) -> np.ndarray:
+        self._i ^= 1
+        ends = self._buf[self._i]
+        t = np.multiply(self._half, self._axis, out=self._t)
+        np.subtract(self._centre, t, out=ends[:, 0])
+        np.add(self._centre, t, out=ends[:, 1])
+        return ends
 
 
 class _HangTest:
@@ -270,8 +261,14 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
     kept = _posture_kept(start_posture, float(roll_angle(pose)), sm.support_geom >= 0)
     weight = params.total_mass * -m.opt.gravity[2]
     x_min, x_max, y_min, y_max = sm.cells.bounds
-    limits = _BallLimits(params, ri, cfg.limit_stiffness_factor)
+    limits = BallLimits(params, ri, cfg.limit_stiffness_factor)
     cell_dof = sm.cell_index.dof.ravel()
+    # views of MuJoCo's arrays, taken once: the loop reads them in place every step
+    qpos, qvel, qfrc_applied, qfrc_constraint = d.qpos, d.qvel[:nv], d.qfrc_applied, d.qfrc_constraint
+    com = d.subtree_com[ri.body[0]]
+    root_xmat = d.xmat[ri.body[0]].reshape(3, 3)
+    capsules = _Ends(m, d, ri)
+    pelvis = capsules.pelvis
     pelvis_floor = -cfg.fall_depth_m + radius[PELVIS]  # lowest allowed pelvis axis point
     dt = cfg.timestep_s
     m.opt.timestep = dt  # the model is shared: a previous body may have left it at the coarse step
@@ -295,29 +292,29 @@ def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str,
                 v_max2, v_rest2, a_rest2, hold_steps = _step_limits(cfg, dt)
                 prev_ends = prev_move = None  # displacements per step change scale: measure afresh
                 hold = 0
-            limits.apply(d)
+            limits.apply(qpos, qfrc_applied)
             mujoco.mj_step(m, d)
             used_s += dt
-            ends = capsule_ends(m, d, ri)  # kinematics of the state this step started from
+            ends = capsules()  # kinematics of the state this step started from
+            pelvis_z = ends[pelvis, :, 2].min()
             if touch < 0:
-                if ends[PELVIS, :, 2].min() <= radius[PELVIS] or -d.qfrc_constraint[cell_dof].sum() >= 0.5 * weight:
+                if pelvis_z <= radius[PELVIS] or -qfrc_constraint[cell_dof].sum() >= 0.5 * weight:
                     touch = step
                 elif step % cfg.zero_every == 0:
-                    d.qvel[:nv] = 0.0
+                    qvel[:] = 0.0
                     prev_ends = prev_move = None
                     continue
-            if not np.isfinite(d.qvel[:nv]).all() or (step % 10 == 0 and _troubled(d)):
+            if not np.isfinite(qvel).all() or (step % 10 == 0 and _troubled(d)):
                 status = "unstable"
                 break
             if step % cfg.posture_check_steps == 0:
-                if not kept(float(roll_of_rotation(d.xmat[ri.body[0]].reshape(3, 3)))):
+                if not kept(float(roll_of_rotation(root_xmat))):
                     status = "posture_changed"
                     break
                 if hang is not None and hang(d):
                     status = "limb_off_bed"
                     break
-            com = d.subtree_com[ri.body[0]]
-            if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or ends[PELVIS, :, 2].min() < pelvis_floor:
+            if not (x_min <= com[0] <= x_max and y_min <= com[1] <= y_max) or pelvis_z < pelvis_floor:
                 status = "fell_off_bed"
                 break
             if prev_ends is not None:

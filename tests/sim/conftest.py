@@ -1,4 +1,5 @@
-"""Shared cases for the press tests."""
+"""Shared cases for the press tests, and the ball-joint limit torques joint by joint for the ragdoll
+and settle tests."""
 
 from types import SimpleNamespace
 
@@ -9,6 +10,7 @@ import scipy.sparse.linalg as spl
 import trimesh
 
 from pressurepose.sim import GRAVITY, get_bed
+from pressurepose.sim import ragdoll as rd
 from pressurepose.sim.foundation import (
     PasternakFoundation,
     rigid_jacobian,
@@ -67,3 +69,32 @@ def pasternak_patch():
                                found=found, flat=flat, stiff=stiff)
 
     return case
+
+
+class PerJointLimits:
+    """The ball-joint limit torques as the settle applied them joint by joint: for each limited ball
+    joint with a stiffness, its quaternion to a rotation vector, each SMPL axis tested against its
+    limits, and :func:`~pressurepose.sim.ragdoll.limit_torques` when one is outside; no torque
+    otherwise. The same interface as :class:`~pressurepose.sim.ragdoll.BallLimits`."""
+
+    def __init__(self, params, index, factor):
+        self.joints = [k for k in index.ball if params.limited[k] and params.stiffness[k] > 0]
+        self.qpos = {k: int(index.qpos[k]) for k in self.joints}
+        self.dof = {k: int(index.dof[k]) for k in self.joints}
+        self.lower, self.upper = params.lower, params.upper
+        self.k = {k: factor * params.stiffness[k] for k in self.joints}
+
+    def apply(self, qpos, qfrc_applied):
+        for k in self.joints:
+            w = rd.quat_to_rotvec(qpos[self.qpos[k]: self.qpos[k] + 4])
+            r = rd.local_to_smpl(w)
+            outside = any(r[a] < self.lower[k, a] or r[a] > self.upper[k, a] for a in range(3))
+            tau = rd.limit_torques(w[None], self.lower[k][None], self.upper[k][None],
+                                   np.array([self.k[k]]))[0] if outside else 0.0
+            qfrc_applied[self.dof[k]: self.dof[k] + 3] = tau
+
+
+@pytest.fixture
+def per_joint_limits():
+    """:class:`PerJointLimits`."""
+    return PerJointLimits

@@ -106,6 +106,40 @@ def test_limit_torques_are_minus_the_energy_gradient_and_zero_inside():
             assert tau[i] == pytest.approx(-(energy(plus) - energy(minus)) / (2 * eps), abs=1e-5)
 
 
+def test_ball_limits_are_the_per_joint_torques_to_the_bit(per_joint_limits):
+    """Random states of the limited ball joints (small to large rotations, either quaternion sign,
+    some at the identity): the torques for all joints at once are the joint-by-joint ones exactly,
+    zero for joints inside their box, and cleared when every joint is back inside."""
+    params = rd.ragdoll_params(BodyModel(toy_body_arrays()), BETAS, "female")
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    rd.add_ragdoll(spec, params)
+    model = spec.compile()
+    index = rd.RagdollIndex.of(model)
+    fast, slow = rd.BallLimits(params, index, 300.0), per_joint_limits(params, index, 300.0)
+    assert len(slow.joints) >= 4
+    data, ref = mujoco.MjData(model), mujoco.MjData(model)
+    rng = np.random.default_rng(7)
+    some_out = some_in = 0
+    for i in range(400):
+        v = rng.normal(size=(len(slow.joints), 3)) * (0.05, 0.3, 1.0, 3.0)[i % 4]
+        q = rd.rotvec_to_quat(v) * rng.choice((-1.0, 1.0), (len(v), 1))
+        if i % 5 == 0:
+            q[rng.integers(len(q))] = (1.0, 0.0, 0.0, 0.0)
+        data.qpos[fast.qpos] = q
+        ref.qpos[:] = data.qpos
+        fast.apply(data.qpos, data.qfrc_applied)
+        slow.apply(ref.qpos, ref.qfrc_applied)
+        assert data.qfrc_applied.tobytes() == ref.qfrc_applied.tobytes()
+        torque = data.qfrc_applied[fast.dof].reshape(-1, 3)
+        some_out += np.any(torque != 0)
+        some_in += np.any(np.all(torque == 0, axis=1))
+    assert some_out > 100 and some_in > 100
+    data.qpos[fast.qpos] = (1.0, 0.0, 0.0, 0.0)
+    fast.apply(data.qpos, data.qfrc_applied)
+    assert not np.any(data.qfrc_applied)
+
+
 def test_split_twist():
     axis = np.array([0.0, 0.0, 1.0])
     swing, angle = rd.split_twist(np.array([0.0, 0.0, 1.2]), axis)

@@ -238,6 +238,32 @@ def test_the_hanging_limb_test_leaves_a_resting_body_as_it_was(body, supine):
     np.testing.assert_array_equal(tested.capsules, res.capsules)
 
 
+def test_the_settle_rests_bodies_as_the_per_joint_limit_torques_do(body, monkeypatch, per_joint_limits):
+    """The settle with the ball-joint limit torques joint by joint (legs hanging over the foot end
+    onto their hip limits, held there for most of the steps) rests the body bit for bit where the
+    settle does."""
+    import pressurepose.sim.settle as settle_module
+
+    pose = lying()
+    _, joints = body.forward(BETAS, pose, np.zeros(3))
+    x0, x1, _, y1 = BED.mattress_bounds
+    transl = np.array([(x0 + x1) / 2 - joints[0, 0, 0], y1 - 0.03 - joints[0, 1, 1], 0.3])
+    res = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    held = []
+
+    class Counted(per_joint_limits):
+        def apply(self, qpos, qfrc_applied):
+            super().apply(qpos, qfrc_applied)
+            held.append(any(np.any(qfrc_applied[d: d + 3]) for d in self.dof.values()))
+
+    monkeypatch.setattr(settle_module, "BallLimits", Counted)
+    ref = settle(body, BETAS, pose, transl, "female", BED, FAST)
+    assert sum(held) > len(held) / 2
+    assert res.status == ref.status == "settled"
+    assert res.steps == ref.steps and res.touch_step == ref.touch_step
+    assert res.capsules.tobytes() == ref.capsules.tobytes()
+    assert res.pose.tobytes() == ref.pose.tobytes() and res.transl.tobytes() == ref.transl.tobytes()
+
 def test_body_dropped_beside_the_bed_falls_off(body):
     pose = lying()
     x0, x1, y0, y1 = BED.mattress_bounds
