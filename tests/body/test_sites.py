@@ -272,3 +272,15 @@ def test_site_map_refuses_images_that_do_not_match_the_bodies():
     v, f, _ = sheet(range(2), range(2))
     with pytest.raises(BadInput, match="one image per body"):
         body_site_map(np.stack([v, v]), f, np.zeros(len(v), int), MAT, np.zeros((1, 4, 5)))
+
+
+def test_fit_offset_refuses_an_image_or_heights_off_the_mat():
+    heights = np.full(MAT.shape, np.inf)
+    with pytest.raises(BadInput, match="pressure has shape"):
+        fit_offset(np.zeros((MAT.rows + 1, MAT.cols)), heights, MAT)
+    with pytest.raises(BadInput, match="pressure has shape"):
+        fit_offset(np.full(MAT.shape, np.nan), heights, MAT)
+    with pytest.raises(BadInput, match="heights has shape"):
+        fit_offset(np.zeros(MAT.shape), heights[:, :-1], MAT)
+    with pytest.raises(BadInput, match="reach_m"):
+        fit_offset(np.zeros(MAT.shape), heights, MAT, reach_m=-0.01)
