@@ -30,7 +30,7 @@ A sample is rejected, and the cause counted, when it:
   (:func:`pressurepose.sim.simulate.limb_off_bed`) names the same cause; a hanging limb does not
   come back (over the partitions with such rejections, every attempt that met the test at a check
   still met it at rest, or was rejected for another cause first), so the attempt stops where
-  the limb first hangs: 0.4-0.9 of the steps it ran before to reach its rest;
+  the limb first hangs, after 0.4-0.9 of the steps that settling it to rest takes;
 * ``posture_changed``: leaves the posture class (supine / left or right lateral / prone) it started
   in while settling (checked every ``posture_check_steps`` steps, so a body rolling over stops
   early instead of running on until it rests or falls off), or rests in another class (with a
@@ -91,7 +91,7 @@ from pressurepose.sim.ragdoll import (
     ragdoll_params,
     rotation_to_quat,
 )
-from pressurepose.sim.settle_config import LIMB_JOINTS, SettleConfig
+from pressurepose.sim.settle_config import LIMB_JOINTS, SettleConfig, hanging
 from pressurepose.sim.settle_model import SettleModel, capsule_ends
 from pressurepose.sim.settle_stiffness import settle_stiffness
 from pressurepose.sim.wedge import Wedge, wedge_behind
@@ -183,6 +183,10 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
         raise BadInput(f"pose has shape {pose.shape}; expected finite (72,) SMPL axis-angle")
     if transl.shape != (3,) or not np.all(np.isfinite(transl)):
         raise BadInput(f"transl has shape {transl.shape}; expected finite (3,) metres")
+    if hang_depth_m is not None and (isinstance(hang_depth_m, bool) or not isinstance(hang_depth_m, (int, float, np.floating))
+                                     or not np.isfinite(hang_depth_m) or hang_depth_m < 0):
+        raise BadInput(f"hang_depth_m is {hang_depth_m!r}; expected None (limbs may hang) or a finite number of "
+                       f"metres >= 0")
     g = body.gender if gender is None else gender
     if params is None:
         caps = capsules_for(body, betas)
@@ -241,9 +245,7 @@ class _HangTest:
     def __call__(self, data: mujoco.MjData) -> bool:
         rot = data.xmat[self.tip_parent].reshape(-1, 3, 3)
         p = np.concatenate([data.xpos[self.own], data.xpos[self.tip_parent] + (rot @ self.tip_offset[..., None])[..., 0]])
-        x0, x1, y0, y1 = self.bounds
-        beyond = (p[:, 0] < x0) | (p[:, 0] > x1) | (p[:, 1] < y0) | (p[:, 1] > y1)
-        return bool(np.any(beyond & (p[:, 2] < -self.depth)))
+        return hanging(p, self.bounds, self.depth)
 
 
 def _run(sm: SettleModel, params: RagdollParams, betas: np.ndarray, gender: str, pose: np.ndarray,

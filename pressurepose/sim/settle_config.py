@@ -24,6 +24,14 @@ LIMB_JOINTS = tuple(JOINT_NAMES.index(f"{side}_{j}") for side in ("left", "right
 # a limb joint this far below the mattress's top beyond its edge hangs (a resting limb's joints lie
 # above the body's lowest surface, which sinks at most ~7 cm into the foam)
 HANG_DEPTH_M = 0.1
+
+
+def hanging(points: np.ndarray, bounds: tuple[float, float, float, float], depth_m: float) -> bool:
+    """Whether any of ``points`` (K, 3) bed frame, m, lies beyond the mattress outline ``bounds``
+    (x0, x1, y0, y1) m and more than ``depth_m`` below the mattress's top (z = 0): a hanging limb."""
+    x0, x1, y0, y1 = bounds
+    beyond = (points[:, 0] < x0) | (points[:, 0] > x1) | (points[:, 1] < y0) | (points[:, 1] > y1)
+    return bool(np.any(beyond & (points[:, 2] < -depth_m)))
 CONES = ("pyramidal", "elliptic")  # MuJoCo's friction cones
 # the settles a dataset can be made with (``GenerationConfig.settle``, ``--settle``; :func:`settle_preset`)
 SETTLES: tuple[str, ...] = ("relaxed", "paper")

@@ -20,7 +20,7 @@ from pressurepose.body.lbs_numpy import (
     rotation_to_axis_angle,
     shaped_rest,
 )
-from pressurepose.sim.settle_config import HANG_DEPTH_M, LIMB_JOINTS
+from pressurepose.sim.settle_config import HANG_DEPTH_M, LIMB_JOINTS, hanging
 
 if TYPE_CHECKING:
     from pressurepose.sim.press import PressResult
@@ -112,10 +112,7 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
     beyond the mattress's outline and more than HANG_DEPTH_M below its top. (A hand or foot that
     rests across the edge a few cm past it, as arms above the head of a body lying near the head
     end do, is not hanging.)"""
-    x0, x1, y0, y1 = bed.mattress_bounds
-    p = joints[list(LIMB_JOINTS)]
-    beyond = (p[:, 0] < x0) | (p[:, 0] > x1) | (p[:, 1] < y0) | (p[:, 1] > y1)
-    return bool(np.any(beyond & (p[:, 2] < -HANG_DEPTH_M)))
+    return hanging(np.asarray(joints)[list(LIMB_JOINTS)], bed.mattress_bounds, HANG_DEPTH_M)
 
 
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,

@@ -554,3 +554,9 @@ def test_the_start_test_is_what_mujoco_finds_between_the_ragdolls_capsules(body)
         assert bool(start_overlap(capsule_ends(m, d, ri), params.radius, FAST.self_collision_tol_m)) == by_mujoco
         verdicts.append(by_mujoco)
     assert 5 < sum(verdicts) < 55
+
+
+@pytest.mark.parametrize("depth", [-0.1, float("nan"), "0.1", True])
+def test_settle_refuses_a_hang_depth_that_is_not_metres(body, depth):
+    with pytest.raises(BadInput, match="hang_depth_m"):
+        settle(body, BETAS, lying(), np.zeros(3), "female", BED, FAST, hang_depth_m=depth)
