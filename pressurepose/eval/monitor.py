@@ -274,8 +274,9 @@ class Timeline:
         """:meth:`summary`, the sites, the posture segments (:meth:`segments`) and the recording per
         ``interval_s`` (:meth:`per_interval`), strict JSON (NaN written as null). The rows of every
         frame are :meth:`to_csv`'s."""
+        intervals = self.per_interval(interval_s)  # first: BadInput for a bad interval_s
         return {**self.summary(), "sites": list(SITES), "interval_s": _num(float(interval_s)),
-                "segments": self.segments(), "per_interval": self.per_interval(interval_s)}
+                "segments": self.segments(), "per_interval": intervals}
 
     def to_csv(self) -> str:
         """One line per frame: time_s, posture, roll_deg, estimated, then ``<site>_peak_mmhg`` and

@@ -135,8 +135,8 @@ def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval(
 
 def test_the_json_record_holds_posture_segments_and_minutes_not_frames():
     """timeline.json's record: one segment per posture held and one row per minute (posture held
-    longest, highest peak, time-weighted share), a few hundred rows for a night instead of one per
-    frame; the per-frame rows are the CSV's."""
+    longest, highest peak, time-weighted share): a few hundred rows for a night; the per-frame rows
+    are the CSV's."""
     t, frames, roll = _night([(0, 3020), (85, 1780), (3, 600)])
     tl = _read(t, frames, roll, MonitorConfig())
     k = site_index("sacrum")
@@ -156,6 +156,8 @@ def test_the_json_record_holds_posture_segments_and_minutes_not_frames():
     assert len(tl.per_interval(600.0)) == 9
     with pytest.raises(BadInput, match="interval_s"):
         tl.per_interval(0)
+    with pytest.raises(BadInput, match="interval_s"):
+        tl.to_dict("a minute")
 
 
 def test_a_short_dip_under_the_threshold_does_not_relieve_the_skin_and_noise_is_no_load():

@@ -196,7 +196,7 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
 
 
 # ---------------------------------------------------------------------------------------- over time
-FRAME_SUFFIXES = (".npy", ".csv", ".txt")
+FRAME_SUFFIXES = RECORDING_SUFFIXES  # one-frame files of a folder: any recording file holding one frame
 
 
 def _natural_key(path) -> list:
