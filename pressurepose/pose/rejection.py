@@ -107,7 +107,8 @@ class Run:
         self.pair_index = [_pair_index(limb, pairs) for limb, pairs in zip(LIMBS, self.limb_pairs)]
         # the settle's start test (pressurepose.body.contact) on the pairs this test leaves out (the
         # exempt hands'), applied to the whole poses this test accepts
-        self.start_pairs = tuple(p for p in START_PAIRS if p not in set(self.collision.pairs))
+        tested = set(self.collision.pairs)
+        self.start_pairs = tuple(p for p in START_PAIRS if p not in tested)
         self.leg_limbs = tuple(li for li, limb in enumerate(LIMBS) if limb.is_leg)
         self.arm_limbs = tuple(li for li, limb in enumerate(LIMBS) if not limb.is_leg)
         n, s = len(rngs), min(NUM_BETAS, body.num_betas)
