@@ -53,8 +53,8 @@ FORMAT_VERSION = 1
 REPAIR_HINT = ("rerun its generate command with --repair to set the manifest and its shards aside "
                "(renamed *.corrupt-<time>) and make the dataset again")
 _F32 = ("pressure", "force", "depth", "betas", "pose", "transl", "joints", "mass", "height")
-# sampler settings that manifests of earlier versions record and this version no longer has, with
-# the value under which they changed nothing (max_limb_sink: an opt-in limb test, docs/not-adopted.md).
+# sampler settings that some manifests record and SamplerConfig does not have, with the value under
+# which they changed nothing (max_limb_sink: an opt-in limb test, docs/not-adopted.md).
 # A manifest holding that value reads as if it did not name the setting, so its dataset resumes; any
 # other value stays in the record, and a resume is refused as made under other sampler constants.
 RETIRED_SAMPLER_SETTINGS = {"max_limb_sink": None}

@@ -42,9 +42,9 @@ Where that test exempts a capsule (the hands behind the head, which rest against
 passes also takes the settle's start test on the pairs it left out
 (:func:`pressurepose.body.contact.start_overlap`: the ragdoll's contact geoms, their own radii, 2 mm),
 and one that fails starts its body afresh (shape, root, shift and bins, counted as a
-``self_collision``): the new attempt the settle's rejection would have caused, so the accepted
-poses keep the law they had when the settle rejected them (docs/physics.md) and the settle rejects
-none of them. Elsewhere the test checks every pair the settle does, on wider and longer capsules,
+``self_collision``): the new attempt the settle's rejection would cause, so the accepted poses
+follow the law they follow when the settle rejects the failing ones (docs/physics.md), and the
+settle rejects none of them. Elsewhere the test checks every pair the settle does, on wider and longer capsules,
 and the start test is not run.
 
 Bed-referenced heights (an option, off by default). The paper keeps each distal joint near its

@@ -15,8 +15,8 @@ CAUSES = LIMB_CAUSES + ("legs_not_crossed", "self_collision")
 # work done: limb candidates judged, whole poses checked, bins and bodies redrawn
 TALLIES = ("limb_candidates", "full_poses", "bins_redrawn", "bodies_redrawn")
 COUNTERS = CAUSES + TALLIES
-# counters that files of earlier versions hold and this one does not count: "into_bed", an opt-in
-# limb test (docs/not-adopted.md); their columns are dropped on reading
+# counters that some sample files hold and the sampler does not count: "into_bed", an opt-in limb
+# test (docs/not-adopted.md); their columns are dropped on reading
 RETIRED_COUNTERS = ("into_bed",)
 _COL = {name: i for i, name in enumerate(COUNTERS)}
 

@@ -39,9 +39,9 @@ passed through these rules lay 7.4 cm from themselves (end-joint distance) with 
 no nudging; nudged, 4.1 cm at 1.2 x and 2.9 cm at 1.0 x (600 side-lying fits: 3.9, 2.1, 1.8 cm).
 The nudges are what most separates the natural partitions' bodies from real people: 400
 ``natural_supine`` bodies' poses lay 2.5 cm from the held-out fits as drawn and clipped and 3.4 cm
-once nudged (elbows 2.4 -> 4.0 cm, wrists 3.1 -> 5.6 cm; side-lying 2.3 -> 2.7 cm); shortening each
-nudge to the least that frees the pose brought 600 drawn bodies from 3.5 to 3.3 cm (side-lying
-2.8 -> 2.7 cm).
+once nudged, each nudge kept whole (elbows 2.4 and 4.0 cm, wrists 3.1 and 5.6 cm; side-lying 2.3 and 2.7 cm). With each
+nudge shortened to the least that frees the pose, 600 drawn bodies lie 3.3 cm from them
+(side-lying 2.7 cm); with the free nudge that moves the joints least kept whole, 3.5 cm (2.8 cm).
 
 The hip twist is real in the fits, not an artefact of the angles: the limits bound the components
 of SMPL's local axis-angle, as the paper's public sampler draws them (it writes each drawn angle

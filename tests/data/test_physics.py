@@ -83,8 +83,8 @@ def test_manifest_records_the_physics_constants_and_a_resume_under_others_is_ref
 
 
 def test_a_manifest_recording_the_retired_max_limb_sink_reads_and_resumes(tmp_path):
-    """Manifests of earlier versions record the sampler's max_limb_sink (None: the limb test off, as
-    every generated dataset had it). Such a manifest reads and its dataset resumes; one recording the
+    """Some manifests record the sampler's max_limb_sink (None: the opt-in limb test off, as every
+    generated dataset had it). Such a manifest reads and its dataset resumes; one recording the
     test on reads, but a resume is refused, naming the setting."""
     import json
 

@@ -331,7 +331,7 @@ def test_hands_behind_head_pose_with_a_hand_in_the_head_is_rejected(female, segm
 def test_hands_behind_head_draws_pass_the_settles_start_test(batch_of, female):
     """30 accepted hands-behind-head bodies placed in the settle's ragdoll: MuJoCo finds no pair of
     its capsules more than the settle's tolerance inside each other, so none is rejected as
-    self_collision (before, about 3 in 4 were)."""
+    self_collision (29 of 40 poses the paper's test accepts would be)."""
     import mujoco
 
     from pressurepose.sim.bed import get_bed
@@ -371,7 +371,7 @@ def test_hands_behind_head_is_deterministic_per_seed(female):
 def test_only_the_hands_behind_head_sampler_adds_the_settles_start_test(female, partition):
     """Elsewhere the paper's test checks every capsule the settle does, with wider radii and longer
     trunk capsules, so the start test could reject nothing more: it is not run, and those
-    partitions draw what they drew before."""
+    partitions' draws do not depend on it."""
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.rejection import Run
 

@@ -117,8 +117,8 @@ def test_file_round_trip_and_corrupt_file(toy, tmp_path):
 
 
 def test_a_sample_file_with_the_retired_into_bed_counter_reads(toy, tmp_path):
-    """Files written when the sampler had its opt-in into_bed test hold a counter column for it (after
-    "bin"); it is dropped on reading and every other counter keeps its value."""
+    """A sample file holding a counter column for the opt-in into_bed limb test (after "bin";
+    docs/not-adopted.md) reads: the column is dropped and every other counter keeps its value."""
     from pressurepose.pose.samples import COUNTERS
 
     b = sample_bodies("general", "f", 3, 4, body=toy)
