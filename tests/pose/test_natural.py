@@ -188,19 +188,27 @@ def test_a_pose_file_gives_its_poses(tmp_path):
         sample_bodies("supine_crossed_legs", "f", 1, seed=0, body=body, config=lateral)
 
 
-def test_colliding_file_poses_are_nudged_apart(tmp_path):
-    p = tiny_pose_file(tmp_path / "p.npz")[:1]
-    # both forearms folded across the belly: the hands sink into the trunk's capsules
+@pytest.fixture(scope="module")
+def folded_arms(tmp_path_factory):
+    """(the file's pose (1, 72) with both forearms folded across the belly, so the hands sink into
+    the trunk's capsules; the female body; 6 bodies drawn from that file with no noise)."""
+    tmp = tmp_path_factory.mktemp("folded")
+    p = tiny_pose_file(tmp / "p.npz")[:1]
     for side, sign in (("left", -1), ("right", 1)):
         p[0, 3 * joint_index(f"{side}_shoulder") + 2] = np.radians(sign * 75)
         p[0, 3 * joint_index(f"{side}_elbow") + 1] = np.radians(sign * 110)
-    np.savez(tmp_path / "c.npz", pose=p)
+    np.savez(tmp / "c.npz", pose=p)
     body = BodyModel("female")
+    batch = sample_bodies("general_supine", "f", 6, seed=1, body=body,
+                          config=SamplerConfig(poses=PoseFile.of(tmp / "c.npz", noise_deg=0.0), **NO_MARGIN))
+    return p, body, batch
+
+
+def test_colliding_file_poses_are_nudged_apart(folded_arms):
+    p, body, batch = folded_arms
     caps = capsules_for(body, np.zeros(10))
     pos, rot = joint_frames(body, np.zeros(10), p)
     assert checker().contacts(capsule_endpoints(caps, pos, rot)[0], caps.radius)  # the file's pose collides
-    batch = sample_bodies("general_supine", "f", 6, seed=1, body=body,
-                          config=SamplerConfig(poses=PoseFile.of(tmp_path / "c.npz", noise_deg=0.0), **NO_MARGIN))
     for k in range(len(batch)):
         c = capsules_for(body, batch.betas[k])
         pos, rot = joint_frames(body, batch.betas[k], batch.pose[k:k + 1], batch.transl[k:k + 1])
@@ -211,18 +219,11 @@ def test_colliding_file_poses_are_nudged_apart(tmp_path):
     np.testing.assert_array_equal(batch.pose[:, legs], p[:, legs].repeat(len(batch), 0))  # only the arms moved
 
 
-def test_a_nudge_goes_no_further_than_frees_the_pose(tmp_path):
-    p = tiny_pose_file(tmp_path / "p.npz")[:1]
-    for side, sign in (("left", -1), ("right", 1)):  # forearms across the belly, as above
-        p[0, 3 * joint_index(f"{side}_shoulder") + 2] = np.radians(sign * 75)
-        p[0, 3 * joint_index(f"{side}_elbow") + 1] = np.radians(sign * 110)
-    np.savez(tmp_path / "c.npz", pose=p)
-    body = BodyModel("female")
+def test_a_nudge_goes_no_further_than_frees_the_pose(folded_arms):
+    p, body, batch = folded_arms
     caps = capsules_for(body, np.zeros(10))
     pos, rot = joint_frames(body, np.zeros(10), p)
     touching = checker().contacts(capsule_endpoints(caps, pos, rot)[0], caps.radius)
-    batch = sample_bodies("general_supine", "f", 6, seed=1, body=body,
-                          config=SamplerConfig(poses=PoseFile.of(tmp_path / "c.npz", noise_deg=0.0), **NO_MARGIN))
     for k in range(len(batch)):
         c = capsules_for(body, batch.betas[k])
         pos, rot = joint_frames(body, batch.betas[k], batch.pose[k:k + 1], batch.transl[k:k + 1])
