@@ -34,11 +34,12 @@ site                  rule
 (right sites mirror the left ones). The site maps of the shipped models are drawn in
 ``docs/monitoring.md``.
 
-:func:`taxel_sites` gives each loaded taxel of a pressure image the site of the body lying on it
-(of the vertex of the lowest triangle over the taxel's centre nearest that centre, else of the
-nearest such vertex) and :func:`site_loads` the
-peak and mean pressure, contact area and share of the load of each site; :func:`vertex_pressure`
-puts the pressure on the body's surface. Pure numpy over arrays.
+:func:`taxel_sites` gives each loaded taxel of a pressure image the site of the body lying on it,
+once the body is moved by whole taxels onto the image's print (:func:`fit_offset`): of the vertex
+of the lowest triangle over the taxel's centre nearest that centre, else of the nearest such
+vertex; and :func:`site_loads` the peak and mean pressure, contact area and share of the load of
+each site; :func:`vertex_pressure` puts the pressure on the (moved) body's surface. Pure numpy over
+arrays.
 """
 
 from __future__ import annotations
