@@ -26,8 +26,8 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
         "night.png in --out (docs/monitoring.md).")
     p.add_argument("recording", metavar="RECORDING",
                    help="the frames: a .npy of (T, rows, cols), a .txt of one frame a line (PMD experiment I's "
-                        "layout), or a folder of one-frame files (.npy, .csv, .txt) in the natural order of "
-                        "their names")
+                        "layout), a single frame (.npy of (rows, cols), .csv, .txt), or a folder of one-frame "
+                        "files (.npy, .csv, .txt) in the natural order of their names")
     add_recording_arguments(p, required=True)
     p.add_argument("--gender", required=True, help="f or m")
     timing = p.add_mutually_exclusive_group()

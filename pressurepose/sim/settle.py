@@ -20,7 +20,8 @@ declared at rest).
 
 A sample is rejected, and the cause counted, when it:
 
-* ``not_settled``: runs 2000 steps without resting;
+* ``not_settled``: does not rest within its step budget (``max_steps`` steps of ``timestep_s``, 20 s of
+  simulated time by default, whatever the coarse step);
 * ``unstable``: produces non-finite numbers, a MuJoCo warning or a capsule faster than 5 m/s;
 * ``fell_off_bed``: its centre of mass leaves the mattress outline, or its pelvis drops more than
   ``fall_depth_m`` below the mattress top;
