@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 # verb -> (module, function stem, one-line help)
@@ -59,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     from pressurepose.errors import BadInput
 
+    # no verb renders with MuJoCo (pictures are matplotlib's): importing it then skips loading an
+    # OpenGL library (glfw, about 0.07 s of start-up, in every worker too); a user's setting stands
+    os.environ.setdefault("MUJOCO_GL", "disable")
     argv = sys.argv[1:] if argv is None else argv
     sys_argv, sys.argv = sys.argv, [sys.argv[0], *argv]
     try:
@@ -80,8 +84,6 @@ def main(argv: list[str] | None = None) -> int:
               "(generate, train and simulate resume when rerun)", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into a reader that stopped (`| head`): quiet, as other tools
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
 

@@ -21,10 +21,14 @@ and zero moment about the centre of mass.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft
-import scipy.sparse
+
+# scipy.fft and scipy.sparse are imported by the Pasternak methods that use them: every module of
+# pressurepose.sim loads this one (PressFailed), and scipy.fft alone is about 0.25 s of start-up
+if TYPE_CHECKING:
+    import scipy.sparse
 
 
 class PressFailed(RuntimeError):
@@ -124,6 +128,8 @@ class PasternakFoundation:
 
     def flexibility(self, lam_grid: np.ndarray) -> np.ndarray:
         """Deflections (m) under cell forces (N), both (..., ny, nx)."""
+        import scipy.fft
+
         axes = (-2, -1)
         c = scipy.fft.dctn(lam_grid, type=2, norm="ortho", axes=axes, workers=1)
         return scipy.fft.idctn(c / self.eig, type=2, norm="ortho", axes=axes, workers=1)
@@ -131,6 +137,8 @@ class PasternakFoundation:
     def stiffness_matrix(self, flat_index: np.ndarray) -> scipy.sparse.csr_matrix:
         """K restricted to the cells ``flat_index`` of the flattened patch (n x n, sparse): the forces
         on those cells for deflections that are zero elsewhere."""
+        import scipy.sparse
+
         ny, nx = self.shape
         n = len(flat_index)
         where = np.full(ny * nx, -1)
