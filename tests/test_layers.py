@@ -21,6 +21,25 @@ def test_the_simulator_does_load_mujoco():  # the check above can fail: the sett
     subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
 
 
+def test_generate_parses_its_arguments_without_the_heavy_libraries():
+    # the verb's options load pressurepose.sim (for --settle and the bed): no scipy.fft (0.25 s),
+    # MuJoCo, torch or trimesh until a body is sampled, settled or pressed
+    code = ("import sys\nfrom pressurepose.cli import main\n"
+            "try:\n    main(['generate', '--help'])\nexcept SystemExit:\n    pass\n"
+            "assert 'pressurepose.sim.press' in sys.modules\n"
+            "heavy = [m for m in ('scipy.fft', 'scipy.sparse', 'mujoco', 'torch', 'trimesh') if m in sys.modules]\n"
+            "assert not heavy, heavy")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO, capture_output=True)
+
+
+def test_a_pasternak_press_does_load_scipy_fft():  # the check above can fail: the lazy import is seen
+    code = ("import sys, numpy as np\nfrom pressurepose.sim.foundation import PasternakFoundation\n"
+            "assert 'scipy.fft' not in sys.modules\n"
+            "PasternakFoundation((2, 3), (0.03, 0.03), 1e5, 10.0).flexibility(np.ones((2, 3)))\n"
+            "assert 'scipy.fft' in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+
+
 def test_every_subpackage_is_on_a_floor():
     config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
     layers = next(c for c in config["contracts"] if c["type"] == "layers")["layers"]
