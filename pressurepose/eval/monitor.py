@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pressurepose.body.sites import NO_SITE, SITES, site_stats
-from pressurepose.errors import BadInput
-from pressurepose.mat import MatSpec
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
+from pressurepose.mat import MAX_TAXELS, MatSpec
 from pressurepose.pose.posture import posture_index
 
 CAPILLARY_CLOSING_MMHG = 32.0  # Landis 1930
@@ -65,16 +65,10 @@ class MonitorConfig:
 
     def __post_init__(self):
         for name in ("threshold_mmhg", "reposition_s", "max_gap_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise BadInput(f"{name} is {v!r}; expected a positive number")
+            require_positive(name, getattr(self, name))
         for name in ("relief_s", "change", "min_posture_s", "contact_mmhg"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise BadInput(f"{name} is {v!r}; expected a number >= 0")
-        v = self.min_contact_taxels
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-            raise BadInput(f"min_contact_taxels is {v!r}; expected a whole number >= 1")
+            require_non_negative(name, getattr(self, name))
+        require_whole("min_contact_taxels", self.min_contact_taxels, 1, MAX_TAXELS)
 
 
 # ---------------------------------------------------------------------------------------- time
@@ -88,8 +82,7 @@ def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s
                        "a recording needs its timing: give its frame rate (fps, frames per second) or a timestamp "
                        "per frame")
     if fps is not None:
-        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
-            raise BadInput(f"frame rate {fps!r}; expected a positive number of frames per second")
+        require_positive("frame rate (frames per second)", fps)
         t = np.arange(count, dtype=np.float64) / float(fps)
     else:
         t = np.asarray(timestamps, dtype=np.float64).ravel()
@@ -245,9 +238,7 @@ class Timeline:
         holding no frame is left out): start_s, end_s, duration_s (the time its frames stand for),
         posture (the one held longest in it), frames, frames_estimated, roll_deg (median), and per
         site the highest peak (``peak_mmhg``) and the time-weighted mean share of the load (``share``)."""
-        if isinstance(interval_s, bool) or not isinstance(interval_s, (int, float)) or not math.isfinite(interval_s) \
-                or interval_s <= 0:
-            raise BadInput(f"interval_s is {interval_s!r}; expected a positive number of seconds")
+        require_positive("interval_s (seconds)", interval_s)
         dur = frame_durations(self.times_s)
         k = np.floor(self.times_s / interval_s).astype(np.int64)
         starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(self) else np.zeros(0, np.int64)
