@@ -167,6 +167,17 @@ def _bed_spec(bed: str, mat: str):
     return BedSpec.from_dict(json.loads(bed)) if bed else get_bed(mat)
 
 
+def _json_record(value, name: str, what: str):
+    """``value`` parsed when it is a JSON string, else as given; BadInput naming ``name`` when the
+    string is not JSON (``what``: the record it should hold)."""
+    if not isinstance(value, str):
+        return value
+    try:
+        return json.loads(value)
+    except json.JSONDecodeError as exc:
+        raise BadInput(f"{name} is not a JSON {what} ({exc})") from None
+
+
 def _canonical_bed(bed, mat: str) -> str:
     """The canonical JSON of a bed record (a JSON string or dict of ``BedSpec.to_dict``; "" for none),
     checked to be a bed on the mat preset ``mat``."""
@@ -174,12 +185,7 @@ def _canonical_bed(bed, mat: str) -> str:
 
     if bed is None or bed == "":
         return ""
-    if isinstance(bed, str):
-        try:
-            bed = json.loads(bed)
-        except json.JSONDecodeError as exc:
-            raise BadInput(f"bed is not a JSON bed record ({exc})") from None
-    spec = BedSpec.from_dict(bed)
+    spec = BedSpec.from_dict(_json_record(bed, "bed", "bed record"))
     if spec.mat != get_mat(mat):
         raise BadInput(f"the bed's mat ({spec.mat.name}, {spec.mat.rows} x {spec.mat.cols}) is not the preset "
                        f"{mat!r}; a dataset's bed must carry its mat preset unchanged")
@@ -192,11 +198,7 @@ def _canonical_poses(poses) -> str:
 
     if poses is None or poses == "":
         return ""
-    if isinstance(poses, str):
-        try:
-            poses = json.loads(poses)
-        except json.JSONDecodeError as exc:
-            raise BadInput(f"poses is not a JSON pose file record ({exc})") from None
+    poses = _json_record(poses, "poses", "pose file record")
     record = poses if isinstance(poses, PoseFile) else PoseFile.from_dict(poses)
     return json.dumps(asdict(record), sort_keys=True)
 
