@@ -50,7 +50,7 @@ import numpy as np
 
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.mesh import lower_surface, mesh_volume
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative
 from pressurepose.mat import MatSpec
 
 SITES: tuple[str, ...] = (
@@ -220,8 +220,7 @@ def fit_offset(pressure, heights, mat: MatSpec, reach_m: float = OFFSET_REACH_M)
     if h.shape != mat.shape or np.isnan(h).any():
         raise BadInput(f"heights has shape {h.shape}; expected ({mat.rows}, {mat.cols}) metres over the taxel "
                        f"centres (+inf where no body), no NaN")
-    if isinstance(reach_m, bool) or not isinstance(reach_m, (int, float)) or not np.isfinite(reach_m) or reach_m < 0:
-        raise BadInput(f"reach_m is {reach_m!r}; expected a finite number of metres >= 0")
+    require_non_negative("reach_m (metres)", reach_m)
     n = int((p > 0).sum())
     if not n or not np.isfinite(h).any():
         return 0, 0
