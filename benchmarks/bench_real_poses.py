@@ -112,14 +112,17 @@ def model_draws(group: str, count: int, seed: int) -> np.ndarray:
 
 def settle_rests(partition: str, per_gender: int, seed: int, real: np.ndarray | None = None):
     """Rested poses of ``per_gender`` bodies per gender of a partition (or, with ``real``, of the real
-    poses through the rules), settled on the default bed: (rest poses (M, 72), settled M, tried)."""
+    poses through the rules), settled on the default bed as ``generate`` settles them (springs at
+    the drawn pose for poses from real people): (rest poses (M, 72), settled M, tried)."""
     from pressurepose.body import BodyModel
     from pressurepose.pose import SamplerConfig, body_rng, get_partition, sample_bodies
+    from pressurepose.pose.sampler import whole_pose
     from pressurepose.pose.posefile import PoseSet
     from pressurepose.pose.whole import FileSource, WholePoseRun
     from pressurepose.sim.settle import settle
 
     rests, tried = [], 0
+    held = real is not None or whole_pose(get_partition(partition), SamplerConfig())
     for g in ("f", "m"):
         body = BodyModel({"f": "female", "m": "male"}[g])
         if real is None:
@@ -133,7 +136,7 @@ def settle_rests(partition: str, per_gender: int, seed: int, real: np.ndarray | 
             drawn = zip(run.betas, run.pose, run.transl)
         for betas, pose, transl in drawn:
             tried += 1
-            rest = settle(body, betas, pose, transl, g)
+            rest = settle(body, betas, pose, transl, g, spring_pose=pose if held else None)
             if rest.ok:
                 rests.append(rest.pose)
     return np.array(rests), len(rests), tried

@@ -55,7 +55,8 @@ def settle_config(config: GenerationConfig):
 def provenance(config: GenerationConfig) -> dict:
     """Every setting of the physics a dataset is made with, as JSON-ready values: the sampler's
     (``sampler``), the settle's (``settle``), the bed's before randomisation (``bed``), for a
-    randomised dataset the ranges drawn from (``randomize``) and, for a partition with a wedge,
+    randomised dataset the ranges drawn from (``randomize``), for bodies posed from real lying poses
+    where their joint springs rest (``springs``: "drawn pose") and, for a partition with a wedge,
     the wedge's constants (``wedge``). The
     manifest keeps it, so it says which constants made the data (not only the config's options),
     and a resume under other constants is refused."""
@@ -69,8 +70,12 @@ def provenance(config: GenerationConfig) -> dict:
 
         record["randomize"] = dataclasses.asdict(RandomizationRanges())
     from pressurepose.pose.partitions import get_partition
+    from pressurepose.pose.sampler import whole_pose
 
-    if get_partition(config.partition).wedge:
+    part = get_partition(config.partition)
+    if whole_pose(part, sampler_config(config)):
+        record["springs"] = "drawn pose"  # the joint springs rest at the drawn pose (simulate_one)
+    if part.wedge:
         from pressurepose.sim import wedge
 
         record["wedge"] = wedge.constants()

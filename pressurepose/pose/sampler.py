@@ -152,6 +152,12 @@ def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool =
                  None)[0]
 
 
+def whole_pose(part: Partition, config: SamplerConfig) -> bool:
+    """Whether the partition's bodies take their whole pose from real lying poses (a natural
+    partition's model of them, or the config's pose file) rather than from the limb sampler."""
+    return config.poses is not None or part.natural
+
+
 def pose_source(part: Partition, config: SamplerConfig):
     """Where a body's whole pose comes from (:mod:`pressurepose.pose.whole`): the config's pose file,
     the natural pose model for a natural partition, else None (the limb sampler). BadInput for a pose

@@ -64,7 +64,7 @@ z-up bed frame, as ``BodyModel.forward``); the resting pose is exact for the mes
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -163,7 +163,8 @@ def cached_model(bed: BedSpec, config: SettleConfig, params: RagdollParams, supp
 
 def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | None = None,
            config: SettleConfig | None = None, *, params: RagdollParams | None = None,
-           wedge: bool = False, hang_depth_m: float | None = None) -> SettleResult:
+           wedge: bool = False, hang_depth_m: float | None = None,
+           spring_pose: np.ndarray | None = None) -> SettleResult:
     """Rest one body on the bed; see the module docstring for the procedure and rejection causes.
 
     body: a ``BodyModel``; betas (S,); pose (72,) SMPL axis-angle; transl (3,) m, z-up bed frame
@@ -173,7 +174,10 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
     precomputed :class:`RagdollParams` for this body and shape (default built here); wedge: prop
     the body with a foam wedge behind its back (:func:`pressurepose.sim.wedge.wedge_behind`);
     hang_depth_m: m, stop as ``limb_off_bed`` when a limb joint lies beyond the mattress's outline
-    and more than this below its top (None: limbs may hang).
+    and more than this below its top (None: limbs may hang); spring_pose: (72,) SMPL axis-angle the
+    joint springs rest at (None: the paper's home pose, :func:`~pressurepose.sim.ragdoll.home_pose`;
+    :func:`~pressurepose.sim.simulate.simulate_one` gives the drawn pose of a body posed from real
+    lying poses, docs/physics.md "Springs of real poses").
     """
     bed = get_bed() if bed is None else bed
     config = SettleConfig() if config is None else config
@@ -188,12 +192,19 @@ def settle(body, betas, pose, transl, gender: str | None = None, bed: BedSpec | 
                                      or not np.isfinite(hang_depth_m) or hang_depth_m < 0):
         raise BadInput(f"hang_depth_m is {hang_depth_m!r}; expected None (limbs may hang) or a finite number of "
                        f"metres >= 0")
+    if spring_pose is not None:
+        spring_pose = np.asarray(spring_pose, dtype=np.float64)
+        if spring_pose.shape != (72,) or not np.all(np.isfinite(spring_pose)):
+            raise BadInput(f"spring_pose has shape {spring_pose.shape}; expected finite (72,) SMPL axis-angle, "
+                           f"or None for the home pose")
     g = body.gender if gender is None else gender
     if params is None:
         caps = capsules_for(body, betas)
         masses = segment_masses(body, betas, g, caps=caps)
         params = ragdoll_params(body, betas, g, caps=caps, masses=masses, relaxed_neck=config.relaxed_neck,
                                 spine_stiffness=config.spine_stiffness)
+    if spring_pose is not None:
+        params = replace(params, home=spring_pose.reshape(-1, 3)[list(CAPSULE_JOINTS)])
     sm = cached_model(bed, config, params, support=wedge)
     hang = None if hang_depth_m is None else _HangTest(body, betas, bed, float(hang_depth_m), sm.ragdoll)
     return _run(sm, params, betas, g, pose, transl, hang)

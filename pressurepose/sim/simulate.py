@@ -131,13 +131,16 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     A partition with a wedge (:attr:`~pressurepose.pose.partitions.Partition.wedge`) settles the
     body against it; the mattress then carries the body less what the wedge holds
     (:func:`pressurepose.sim.wedge.relieved_body`), and the mat reads both (:func:`~pressurepose.sim.wedge.with_wedge`).
+    A body posed from real lying poses (a natural partition or a pose file,
+    :func:`pressurepose.pose.sampler.whole_pose`) holds that pose: its joint springs rest at the
+    drawn pose, not the paper's home pose (docs/physics.md, "Springs of real poses").
 
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
     ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
     :class:`~pressurepose.sim.settle_config.SettleConfig` (default: its defaults, the "relaxed" settle)."""
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
-    from pressurepose.pose.sampler import sample_one
+    from pressurepose.pose.sampler import sample_one, whole_pose
     from pressurepose.sim.press import PressFailed, mesh_centroid
     from pressurepose.sim.settle import settle
     from pressurepose.sim.wedge import relieved_body, with_wedge
@@ -147,8 +150,10 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     t0 = time.process_time()
     drawn = sample_one(partition, gender, rng, limbs_on_bed, body=body, config=sampler)
     t1 = time.process_time()
+    part = get_partition(partition)
     rest = settle(body, drawn.betas, drawn.pose, drawn.transl, gender, bed=bed, config=settle_config,
-                  wedge=get_partition(partition).wedge, hang_depth_m=None if sampler.hanging_limbs else HANG_DEPTH_M)
+                  wedge=part.wedge, hang_depth_m=None if sampler.hanging_limbs else HANG_DEPTH_M,
+                  spring_pose=drawn.pose if whole_pose(part, sampler) else None)
     t2 = time.process_time()
     clock.update(sample=t1 - t0, settle=t2 - t1, press=0.0, steps=int(rest.steps))
     if not rest.ok:

@@ -1,7 +1,8 @@
 """The ragdoll's joint springs (paper appendix A.2), as numbers without the simulator.
 
 Each joint of the capsule ragdoll (:mod:`pressurepose.sim.ragdoll`) is a spring that rests at the
-home pose, with the paper's stiffness for the average body (scaled by body mass) and damping
+home pose (a body posed from real lying poses: at its drawn pose, ``settle(spring_pose=...)``), with
+the paper's stiffness for the average body (scaled by body mass) and damping
 ``DAMPING_PER_STIFFNESS_S`` x stiffness. Two departures from the paper are the settle's defaults
 (``SettleConfig.relaxed_neck``, ``SettleConfig.spine_stiffness``): a relaxed neck and a relaxed spine.
 Ball joints are held inside their limits by a penalty torque of ``LIMIT_STIFFNESS_FACTOR`` x the

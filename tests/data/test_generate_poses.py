@@ -56,6 +56,7 @@ def test_config_carries_the_pose_file_and_old_digests_stay(tmp_path):
 
     assert sampler_config(with_poses).poses == record
     assert "poses" not in provenance(plain)["sampler"]
+    assert provenance(with_poses)["springs"] == "drawn pose" and "springs" not in provenance(plain)
 
 
 @pytest.mark.slow

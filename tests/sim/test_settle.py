@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pressurepose.body import BodyModel
-from pressurepose.body.capsules import capsules_for, posed_capsules
+from pressurepose.body.capsules import CAPSULE_JOINTS, capsules_for, posed_capsules
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.model import asset_path
 from pressurepose.body.toy import toy_body_arrays
@@ -560,3 +560,62 @@ def test_the_start_test_is_what_mujoco_finds_between_the_ragdolls_capsules(body)
 def test_settle_refuses_a_hang_depth_that_is_not_metres(body, depth):
     with pytest.raises(BadInput, match="hang_depth_m"):
         settle(body, BETAS, lying(), np.zeros(3), "female", BED, FAST, hang_depth_m=depth)
+
+
+# ------------------------------------------------------------------------------ where the springs rest
+
+def _arms_bent() -> np.ndarray:
+    """A supine pose far from the home pose: elbows bent 1.5 rad, arms half raised."""
+    pose = lying()
+    for collar, shoulder, elbow, sign in ((13, 16, 18, -1.0), (14, 17, 19, 1.0)):
+        pose[3 * collar + 2] = sign * 0.2
+        pose[3 * shoulder + 2] = sign * 0.4
+        pose[3 * elbow + 1] = sign * 1.5
+    return pose
+
+
+def _spring_torques(body, pose, spring_pose) -> np.ndarray:
+    """The joint springs' generalised forces with the ragdoll at ``pose`` (free root excluded), on
+    the settle's model after a settle that rested its springs at ``spring_pose``."""
+    import mujoco
+
+    from pressurepose.sim.ragdoll import pose_to_qpos
+    from pressurepose.sim.settle import cached_model
+
+    t = centre_transl(body, pose)
+    settle(body, BETAS, pose, t, "female", BED, FAST, spring_pose=spring_pose)
+    params = ragdoll_params(body, BETAS, "female")
+    sm = cached_model(BED, FAST, params)
+    m, d, ri = sm.model, sm.data, sm.ragdoll
+    mujoco.mj_resetData(m, d)
+    pose_to_qpos(m, ri, params, pose, t, d.qpos)
+    mujoco.mj_forward(m, d)
+    elbows = [int(ri.dof[CAPSULE_JOINTS.index(j)]) for j in (18, 19)]  # hinges: one dof each
+    return d.qfrc_spring[ri.dof[1]: sm.nv].copy(), d.qfrc_spring[elbows], params.stiffness[
+        [CAPSULE_JOINTS.index(j) for j in (18, 19)]]
+
+
+def test_springs_rest_at_the_pose_given_and_pull_toward_home_without_one(body):
+    pose = _arms_bent()
+    held, _, _ = _spring_torques(body, pose, pose)
+    assert np.abs(held).max() < 1e-9  # no spring torque at the springs' rest pose
+    _, elbows, k = _spring_torques(body, pose, None)
+    # the paper's springs rest at home (elbows straight): -k x the 1.5 rad bend, toward straight
+    np.testing.assert_allclose(elbows, [k[0] * 1.5, -k[1] * 1.5], rtol=1e-9)
+    assert np.abs(_spring_torques(body, home_pose(), None)[0]).max() < 1e-9
+
+
+def test_springs_at_the_home_pose_given_rest_a_body_as_the_default(body):
+    pose = _arms_bent()
+    t = centre_transl(body, pose)
+    a = settle(body, BETAS, pose, t, "female", BED, FAST)
+    b = settle(body, BETAS, pose, t, "female", BED, FAST, spring_pose=home_pose())
+    assert a.status == b.status == "settled" and a.steps == b.steps
+    np.testing.assert_array_equal(a.pose, b.pose)
+
+
+@pytest.mark.parametrize("bad", [np.zeros(69), np.full(72, np.nan), np.zeros((24, 3))])
+def test_a_bad_spring_pose_is_rejected(body, bad):
+    pose = lying()
+    with pytest.raises(BadInput, match="spring_pose"):
+        settle(body, BETAS, pose, centre_transl(body, pose), "female", BED, FAST, spring_pose=bad)

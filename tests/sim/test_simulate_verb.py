@@ -127,3 +127,33 @@ def test_a_rejected_attempt_is_a_value_naming_the_settles_status():
     assert out.detail.startswith("1 settle step, started supine")
     with pytest.raises(TypeError, match="cause"):
         Rejected("")
+
+
+def test_bodies_posed_from_real_poses_hold_them_and_the_manifest_says_so(monkeypatch):
+    """A natural partition's body settles with its springs at the drawn pose (the settle is given
+    that pose), a limb-sampled body with the paper's home pose (none given); the dataset's
+    provenance records the difference, so a dataset of the other kind does not resume into it."""
+    import pressurepose.sim.settle as settle_module
+    from pressurepose.data.physics import provenance
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.sim import get_bed
+    from pressurepose.sim.settle_config import SettleConfig
+    from pressurepose.sim.simulate import simulate_one
+
+    seen = []
+    real = settle_module.settle
+
+    def spy(body, betas, pose, transl, *args, spring_pose=None, **kw):
+        seen.append((np.array(pose), spring_pose))
+        return real(body, betas, pose, transl, *args, spring_pose=spring_pose, **kw)
+
+    monkeypatch.setattr(settle_module, "settle", spy)
+    bed = get_bed()
+    one_step = SettleConfig(max_steps=1, stiffness_n_m3=bed.stiffness_n_m3)
+    for partition in ("natural_supine", "general_supine"):
+        simulate_one(BodyModel("f"), bed, partition, "f", np.random.default_rng(0), settle_config=one_step)
+    (natural, held), (_, home) = seen
+    np.testing.assert_array_equal(held, natural)
+    assert home is None
+    assert provenance(GenerationConfig(partition="natural_lateral", gender="m"))["springs"] == "drawn pose"
+    assert "springs" not in provenance(GenerationConfig(partition="general_supine", gender="m"))
