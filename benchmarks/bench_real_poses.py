@@ -213,9 +213,10 @@ def main(argv=None) -> int:
             rests, ok, tried = settle_rests(partition, args.settle, args.seed, real=sets[group][1])
             settled.append(row(f"SLP fits of subjects 61-80 through the rules, at rest ({ok} of {tried})", group,
                                ok, end_joint_distances(rests, sets[group][1])))
-        lines += ["", f"Settled ({args.settle} bodies per gender, the default bed and settle, the joint springs of poses from real people (natural partitions, the fits) resting at the drawn pose as `generate` rests them; rests measured as "
-                  "above against the held-out fits, which are people at rest). The distance of a few poses reads "
-                  "high (600 real poses lie 1.3-1.4 cm from the held-out ones, 50 of them 2-3 cm): compare each "
+        lines += ["", f"Settled ({args.settle} bodies per gender, the default bed and settle, the joint springs of "
+                  "poses from real people (natural partitions, the fits) resting at the drawn pose as `generate` "
+                  "rests them; rests measured as above against the held-out fits, which are people at rest). "
+                  "The distance of a few poses reads high (600 real poses lie 1.3-1.4 cm from the held-out ones, 50 of them 2-3 cm): compare each "
                   "row with the floor at its size.", "", *settled, "",
                   f"Goal, natural rests within {GOAL_SETTLED_CM:.0f} cm of held-out people: " + ", ".join(
                       f"`{k}` {v:.1f} cm ({'met' if v <= GOAL_SETTLED_CM else 'not met'})"
