@@ -210,9 +210,12 @@ def fit_offset(pressure, heights, mat: MatSpec, reach_m: float = OFFSET_REACH_M,
     and the move whose loads correlate best with the image wins ((0, 0) on a tie, an empty image or
     a body nowhere over the mat). Moving the estimated body onto its image's print before its skin
     is read off gives each loaded taxel the site of the body part that made it, not of its
-    neighbour. On two held-out simulated sets of 100 images (benchmarks/bench_sites.py, seeds 1420
-    and 77) it brings the per-site share error from 1.77 and 1.76 pp to 1.69 and 1.75 pp; the most
-    loaded site is named right in 87 % and 81 % of images (83 % and 84 % without it)."""
+    neighbour. On 400 held-out simulated images (benchmarks/bench_sites.py's 100 of seed 1420, and
+    300 more of seeds 2101-2103, 5 per gender of each partition) it brings the per-site share error
+    from 1.80 and 1.74 pp to 1.70 and 1.70 pp; the most loaded site is named right in 85 % and 86 %
+    of images (80 % and 86 % without it). Finer moves (a third or a fifth of a taxel), a longer
+    reach, a turn or roll of the body, or a move per patch of the print named the most loaded site
+    at most about a point more often, within the noise (docs/not-adopted.md, "Reading body sites")."""
     if not isinstance(mat, MatSpec):
         raise BadInput(f"mat is {type(mat).__name__}; expected a pressurepose.mat.MatSpec")
     p = np.asarray(pressure, dtype=np.float64)
