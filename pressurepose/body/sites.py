@@ -161,21 +161,21 @@ def taxel_sites(pressure, vertices, faces, vertex_site, mat: MatSpec, min_mmhg: 
     taxel (r, c) covers x in [c, c+1) pitch_col_m, y in [r, r+1) pitch_row_m) and faces (F, 3)
     their triangles; vertex_site (V,) from :func:`vertex_sites` (or (B, V), one per body). A taxel
     is loaded when it reads more than ``min_mmhg``; it takes its site in :func:`body_site_map`
-    (each body first moved onto its image: :func:`fit_offset`).
+    (each body first moved onto its image: :func:`fit_offset`, which counts the same taxels as loaded).
     """
     p, verts, tris, vsite = _check_inputs(pressure, vertices, faces, vertex_site, mat)
-    return np.where(p > min_mmhg, body_site_map(verts, tris, vsite, mat, p), NO_SITE).astype(np.int8)
+    return np.where(p > min_mmhg, body_site_map(verts, tris, vsite, mat, p, min_mmhg), NO_SITE).astype(np.int8)
 
 
-def body_site_map(vertices, faces, vertex_site, mat: MatSpec, pressure=None) -> np.ndarray:
+def body_site_map(vertices, faces, vertex_site, mat: MatSpec, pressure=None, min_mmhg: float = 0.0) -> np.ndarray:
     """(B, R, C) int8: the site of the body over every taxel of ``mat``, loaded or not: the site of
     the vertex nearest the taxel's centre of the lowest triangle over that centre (the skin that
     lies on the mat there); where no triangle lies over the centre, the site of the nearest (in
     x, y) of those vertices. ``NO_SITE`` only for a body nowhere over the mat. vertices (B, V, 3) bed
     frame, m; faces (F, 3); vertex_site (V,) from :func:`vertex_sites`, or (B, V) one per body
     (bodies of different models with one topology). ``pressure`` (B, R, C) mmHg, the images the
-    bodies were read from: each body is first moved onto its image (:func:`fit_offset`); None:
-    the bodies as they are."""
+    bodies were read from: each body is first moved onto its image (:func:`fit_offset`, a taxel
+    loaded when it reads more than ``min_mmhg``); None: the bodies as they are."""
     verts = np.asarray(vertices, dtype=np.float64)
     verts = verts[None] if verts.ndim == 2 else verts
     tris = np.asarray(faces, dtype=np.int64)
@@ -188,7 +188,7 @@ def body_site_map(vertices, faces, vertex_site, mat: MatSpec, pressure=None) -> 
     out = []
     for b in range(len(verts)):
         v, skin = (verts[b], _skin(verts[b], tris, mat, closed)) if p is None else \
-            _aligned(p[b], verts[b], tris, mat, closed)
+            _aligned(p[b], verts[b], tris, mat, closed, min_mmhg)
         out.append(_site_map(v, vsite[b], skin, mat))
     return np.stack(out).reshape(len(verts), *mat.shape)
 
@@ -198,19 +198,24 @@ def body_site_map(vertices, faces, vertex_site, mat: MatSpec, pressure=None) -> 
 OFFSET_REACH_M = 0.03
 
 
-def fit_offset(pressure, heights, mat: MatSpec, reach_m: float = OFFSET_REACH_M) -> tuple[int, int]:
+def fit_offset(pressure, heights, mat: MatSpec, reach_m: float = OFFSET_REACH_M,
+               min_mmhg: float = 0.0) -> tuple[int, int]:
     """(rows, cols): the whole-taxel move of a body across ``mat``, at most ``reach_m`` each way
     (at least one taxel), that best explains one pressure image (R, C) mmHg by the body's lower
     surface ``heights`` (R, C) m over the taxel centres (+inf where no body).
 
     A body pressed into a bed of springs loads each taxel in proportion to how far its skin there
-    is below a common level; the level is set so that as many taxels are loaded as the image has,
+    is below a common level; the level is set so that as many taxels are loaded as the image has
+    (readings above ``min_mmhg``; those at or below it count as 0, as in :func:`taxel_sites`),
     and the move whose loads correlate best with the image wins ((0, 0) on a tie, an empty image or
     a body nowhere over the mat). Moving the estimated body onto its image's print before its skin
     is read off gives each loaded taxel the site of the body part that made it, not of its
-    neighbour. On two held-out simulated sets of 100 images (benchmarks/bench_sites.py, seeds 1420
-    and 77) it brings the per-site share error from 1.77 and 1.76 pp to 1.69 and 1.75 pp; the most
-    loaded site is named right in 87 % and 81 % of images (83 % and 84 % without it)."""
+    neighbour. On 400 held-out simulated images (benchmarks/bench_sites.py's 100 of seed 1420, and
+    300 more of seeds 2101-2103, 5 per gender of each partition) it brings the per-site share error
+    from 1.80 and 1.74 pp to 1.70 and 1.70 pp; the most loaded site is named right in 85 % and 86 %
+    of images (80 % and 86 % without it). Finer moves (a third or a fifth of a taxel), a longer
+    reach, a turn or roll of the body, or a move per patch of the print named the most loaded site
+    at most about a point more often, within the noise (docs/not-adopted.md, "Reading body sites")."""
     if not isinstance(mat, MatSpec):
         raise BadInput(f"mat is {type(mat).__name__}; expected a pressurepose.mat.MatSpec")
     p = np.asarray(pressure, dtype=np.float64)
@@ -221,6 +226,8 @@ def fit_offset(pressure, heights, mat: MatSpec, reach_m: float = OFFSET_REACH_M)
         raise BadInput(f"heights has shape {h.shape}; expected ({mat.rows}, {mat.cols}) metres over the taxel "
                        f"centres (+inf where no body), no NaN")
     require_non_negative("reach_m (metres)", reach_m)
+    require_non_negative("min_mmhg", min_mmhg)
+    p = np.where(p > min_mmhg, p, 0.0)
     n = int((p > 0).sum())
     if not n or not np.isfinite(h).any():
         return 0, 0
@@ -251,11 +258,12 @@ def _moved(a: np.ndarray, dr: int, dc: int, fill) -> np.ndarray:
     return out
 
 
-def _aligned(p: np.ndarray, verts: np.ndarray, tris: np.ndarray, mat: MatSpec, closed: bool,
+def _aligned(p: np.ndarray, verts: np.ndarray, tris: np.ndarray, mat: MatSpec, closed: bool, min_mmhg: float = 0.0,
              ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
-    """One body (V, 3) and its :func:`_skin`, moved by whole taxels onto its image p (R, C) (:func:`fit_offset`)."""
+    """One body (V, 3) and its :func:`_skin`, moved by whole taxels onto its image p (R, C)
+    (:func:`fit_offset`, loaded above ``min_mmhg``)."""
     heights, nearest = _skin(verts, tris, mat, closed)
-    dr, dc = fit_offset(p, heights.reshape(mat.shape), mat)
+    dr, dc = fit_offset(p, heights.reshape(mat.shape), mat, min_mmhg=min_mmhg)
     if (dr, dc) == (0, 0):
         return verts, (heights, nearest)
     return (verts + [dc * mat.pitch_col_m, dr * mat.pitch_row_m, 0.0],
@@ -452,7 +460,7 @@ def body_loads(pressure, vertices, faces, vertex_site, mat: MatSpec, min_mmhg: f
     vsite = np.broadcast_to(vsite, verts.shape[:2])
     taxel, on_skin, closed = np.empty(p.shape, np.int8), np.zeros(verts.shape[:2]), _closed(tris)
     for b in range(len(p)):
-        v, skin = _aligned(p[b], verts[b], tris, mat, closed)
+        v, skin = _aligned(p[b], verts[b], tris, mat, closed, min_mmhg)
         taxel[b] = np.where(p[b] > min_mmhg, _site_map(v, vsite[b], skin, mat).reshape(mat.shape), NO_SITE)
         on_skin[b] = _vertex_pressure(p[b], v, skin, mat, reach_m)
     return site_stats(p, taxel, mat), on_skin

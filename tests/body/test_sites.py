@@ -268,6 +268,22 @@ def test_a_body_already_on_its_print_and_an_empty_image_are_not_moved():
     assert fit_offset(_sunk(v, body.faces, mat, 0.09), np.full(mat.shape, np.inf), mat) == (0, 0)
 
 
+def test_fit_offset_leaves_readings_at_or_below_min_mmhg_out_as_taxel_sites_does():
+    mat = custom_mat(12, 9, 0.02)
+    r, c = np.mgrid[0:12, 0:9]
+    # a bowl-shaped lower surface, 1 mm deeper per squared taxel toward its lowest point (6, 4), and
+    # the print it leaves sunk 2 mm into a bed of springs (10 mmHg per mm): it lies on its print
+    heights = np.where((abs(r - 6) <= 3) & (abs(c - 4) <= 3), 0.001 * ((r - 6) ** 2 + (c - 4) ** 2), np.inf)
+    print_ = np.where(np.isfinite(heights), np.maximum(0.002 - heights, 0.0), 0.0) * 1e4
+    image = np.where(r < 4, 5.0, print_)  # and a sheet reading 5 mmHg across the first 4 rows
+    assert (print_ > 5.0).sum() == 5 and fit_offset(print_, heights, mat) == (0, 0)
+    assert fit_offset(image, heights, mat, min_mmhg=5.0) == (0, 0)
+    # counted as load, the sheet's readings pull the body off its print toward them
+    assert fit_offset(image, heights, mat)[0] < 0
+    with pytest.raises(BadInput, match="min_mmhg"):
+        fit_offset(image, heights, mat, min_mmhg=-1.0)
+
+
 def test_site_map_refuses_images_that_do_not_match_the_bodies():
     v, f, _ = sheet(range(2), range(2))
     with pytest.raises(BadInput, match="one image per body"):
