@@ -28,8 +28,8 @@ Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
 ``--install``.
 
-Budget (the defaults, which made the shipped model; 2-core CPU, about 3 hours), as measured in
-docs/RESULTS.md sections generation-run, propped-ab and shipped_model:
+Budget (the defaults, which made the shipped model; 2-core CPU, about 3 hours; docs/training.md,
+docs/throughput.md and docs/RESULTS.md section shipped_model):
 
 - data: 6,000 training + 360 test samples of the paper's mix, 2 workers: 51 minutes (2.1 accepted
   samples per wall-second, 1.13 per CPU-second of the process tree); 2,000 general_lateral samples
@@ -41,14 +41,14 @@ docs/RESULTS.md sections generation-run, propped-ab and shipped_model:
 - evaluation on the held-out set and on the real PMD-I images: a few minutes.
 
 The shipped model is these defaults' run: seed 2 with the turn loss of weight 2 (``--turn-loss 2``,
-not in the paper), trained on a 2-core CPU (docs/RESULTS.md section turn-loss). Its seed-1 twin
-read real postures at 0.86 against its 0.845, and without the turn loss three seeds read 0.74-0.79
-(section gpu-rebuild), so expect a rebuild to land within that spread, not on the same weights.
+not in the paper), trained on a 2-core CPU (docs/training.md, "Options"). Its seed-1 twin
+read real postures at 0.86 against its 0.845, and without the turn loss three seeds read 0.74-0.79,
+so expect a rebuild to land within that spread, not on the same weights.
 ``--turn-loss 0`` trains with the paper's loss. With the defaults the whole data step, 9,498
 training and 360 test samples, took 85 minutes with 2 workers. On a CUDA GPU (``--device auto`` finds one) the same schedule trained in about
 10 minutes on an H200 (Mod1 7-10 s an epoch with three runs sharing the GPU, Mod2 11-12 s alone;
-docs/RESULTS.md section gpu-rebuild); with ``--batch-size 64`` two runs side by side took about 3.5
-minutes each, and read simulated and real images as well as the batch-32 seeds (section cnn-width).
+docs/training.md, "Training speed"); with ``--batch-size 64`` two runs side by side took about 3.5
+minutes each, and read simulated and real images as well as the batch-32 seeds.
 The paper CNN (``--cnn paper``, 2.3 times the weights, about 33 MB in float16 for both modules) was
 measured against the half-width default on two seeds there: no better on real posture, 0.6-0.7 cm
 worse on real stature and 0.3-0.5 cm on simulated bodies (it overfits these 9,498 samples), so
