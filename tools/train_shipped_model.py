@@ -81,7 +81,7 @@ PROPPED_SEED = 1414  # the propped_lateral training entries (1413: a general_lat
 # propped_lateral training samples added by default (at --scale 1). With a 36 + 12 epoch schedule
 # they cost the held-out simulated MPJPE its 13 cm target (13.36 cm); with 48 + 16 epochs the
 # shipped model keeps it (12.85 cm) and reads real side-lying and propped bodies better
-# (docs/RESULTS.md sections propped-ab and shipped_model)
+# (docs/RESULTS.md section shipped_model)
 PROPPED_SAMPLES = 1_500
 
 

@@ -16,7 +16,7 @@
 # three such runs side by side did not finish 48 Mod1 epochs in 450 s. With 16 CPU cores (one H200,
 # OMP_NUM_THREADS=2 a run): two runs side by side with "--batch-size 64" each took about 3.5 minutes
 # (Mod1 2.4-3.1 s an epoch, Mod2 4.3-5.6 s), the GPU 91-99 % busy, and read real and simulated images
-# as well as the batch-32 seeds (docs/RESULTS.md section cnn-width). A warm machine keeps WORK: a
+# as well as the batch-32 seeds (docs/training.md, "Training speed"). A warm machine keeps WORK: a
 # NAME trained again with other arguments is refused ("differs in"); give it a new NAME.
 set -u
 PACK=$1; DL=$2; shift 2
