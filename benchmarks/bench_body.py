@@ -16,6 +16,7 @@ import time
 import numpy as np
 import torch
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import (
@@ -125,7 +126,7 @@ def main(argv=None) -> int:
     lines = [
         "## Body model speed (`benchmarks/bench_body.py`)",
         "",
-        f"`python -m benchmarks.bench_body`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"`python -m benchmarks.bench_body`; {datetime.date.today().isoformat()}, {machine()}, "
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__} with {args.threads} thread(s); {label}, "
         f"{body.num_vertices} vertices. Best of {args.repeats}.",
         "",

@@ -13,11 +13,11 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import time
 
 import numpy as np
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.calibrate.measurements import CapsuleMeasurements
 from pressurepose.calibrate.objects import (
@@ -66,7 +66,7 @@ def main(argv=None) -> int:
     lines = [
         "## Calibration recovers hidden constants (`benchmarks/bench_calibrate.py`)",
         "",
-        f"`python -m benchmarks.bench_calibrate`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"`python -m benchmarks.bench_calibrate`; {datetime.date.today().isoformat()}, {machine()}, "
         f"{os.cpu_count()} CPUs (one used; load "
         f"average {load:.1f} at the start). {len(data)} synthetic capsule measurements (the paper's loads) on the "
         f"BodiTrak bed, all five constants fitted by CMA-ES, population {args.popsize}, seed {args.seed}: "

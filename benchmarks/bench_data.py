@@ -15,13 +15,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import shutil
 import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.common import dataset_counts, run_cli
+from benchmarks.common import dataset_counts, machine, run_cli
 from benchmarks.results import write_section
 
 
@@ -87,7 +86,7 @@ def main(argv=None) -> int:
     text = "\n".join([
         "## Data engine (`benchmarks/bench_data.py`)",
         "",
-        f"`python -m benchmarks.bench_data`; machine: {platform.platform()}, {os.cpu_count()} CPUs (shared: load average {load_before[0]:.1f} "
+        f"`python -m benchmarks.bench_data`; machine: {machine()}, {os.cpu_count()} CPUs (shared: load average {load_before[0]:.1f} "
         f"before, {load_after[0]:.1f} after the throughput runs); {time.strftime('%Y-%m-%d')}.",
         f"Runs: `pressurepose generate --partition {args.partition} --gender {args.gender} --count {args.count} "
         f"--producer {args.producer} --workers N`, other options at their defaults (256-sample shards: one "

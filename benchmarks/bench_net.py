@@ -25,13 +25,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import statistics
 import tempfile
 import time
 
 import torch
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.body.model import BodyModel, asset_path
 from pressurepose.body.toy import toy_body_arrays
@@ -277,7 +277,7 @@ def main(argv=None) -> int:
     lines = [
         "## PressureNet (`benchmarks/bench_net.py`)",
         "",
-        f"`python -m benchmarks.bench_net`; machine: {platform.platform()}, {os.cpu_count()} CPUs (load average {load_before:.1f} before, "
+        f"`python -m benchmarks.bench_net`; machine: {machine()}, {os.cpu_count()} CPUs (load average {load_before:.1f} before, "
         f"{load_after:.1f} after: the machine is shared with other jobs); torch {torch.__version__}, one thread; "
         f"{datetime.date.today().isoformat()}. Bodies: {body_label} ({female.num_vertices} vertices). "
         f"Mat 64 x 27, network input 128 x 54 (flattened CNN features {flattened_size(128, 54):,}). "

@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.sim import PressFailed, get_bed, press
 from pressurepose.sim.press import body_heightfield
@@ -124,7 +125,7 @@ def main(argv=None) -> int:
     lines = [
         "## Press speed (`benchmarks/bench_press.py`)",
         "",
-        f"`python -m benchmarks.bench_press`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"`python -m benchmarks.bench_press`; {datetime.date.today().isoformat()}, {machine()}, "
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs (one used; load average {load:.1f} at the start); "
         f"{label}, {nverts} vertices. Time per press: the best of "
         f"{args.repeats} runs of `press()` (raster, contact solve, sensor), then the median and worst over bodies.",

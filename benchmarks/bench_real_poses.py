@@ -30,11 +30,11 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import time
 
 import numpy as np
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.pose.fidelity import end_joint_distances
 from pressurepose.pose.natural import FITS_ENV, natural_poses, posture_groups
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
     lines = [
         "## Real lying poses (`benchmarks/bench_real_poses.py`)",
         "",
-        f"{datetime.date.today().isoformat()}, {platform.platform()}, one thread. `OMP_NUM_THREADS=1 python -m "
+        f"{datetime.date.today().isoformat()}, {machine()}, one thread. `OMP_NUM_THREADS=1 python -m "
         f"benchmarks.bench_real_poses --fits slp_3dfits_train.npz --count {args.count} --seed {args.seed}"
         f"{f' --settle {args.settle}' if args.settle else ''}`. Poses against the SMPL fits to SLP of subjects "
         f"61-80 (held out of the natural model's fit: {len(sets['supine'][1])} supine, {len(sets['lateral'][1])} "

@@ -16,6 +16,7 @@ import os
 import platform
 import time
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.body import BodyModel
 from pressurepose.body.model import asset_path
@@ -76,7 +77,7 @@ def main(argv=None) -> int:
     lines = [
         "## Pose sampler (`benchmarks/bench_sampler.py`)",
         "",
-        f"`python -m benchmarks.bench_sampler`; {datetime.date.today().isoformat()}, {platform.platform()}, "
+        f"`python -m benchmarks.bench_sampler`; {datetime.date.today().isoformat()}, {machine()}, "
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs (load average {load0:.1f} at the start, {load1:.1f} at the end: a shared "
         f"machine, so CPU-time rates are the fairer per-core figure), one thread; {label}, seed 1.",
         "",

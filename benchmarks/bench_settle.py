@@ -29,6 +29,7 @@ import time
 import mujoco
 import numpy as np
 
+from benchmarks.common import machine
 from benchmarks.results import write_section
 from pressurepose.body import BodyModel
 from pressurepose.body.capsules import capsules_for
@@ -209,7 +210,7 @@ def main(argv=None) -> int:
         text = "\n".join([
             "## The default settle against the fine step (`benchmarks/bench_settle.py --agreement`)", "",
             f"`python -m benchmarks.bench_settle --agreement {args.agreement} --seed {args.seed}`; "
-            f"{datetime.date.today()}, {platform.platform()}, MuJoCo {mujoco.__version__}. The first attempt of "
+            f"{datetime.date.today()}, {machine()}, MuJoCo {mujoco.__version__}. The first attempt of "
             f"{args.agreement} samples per partition of the paper's recipe and gender (seed {args.seed}) settled "
             "with the fine step (dt 0.01 s throughout) and with each settle below, then "
             "pressed; errors are between the two resting bodies' joints (the largest over the 24 joints of a "
@@ -245,7 +246,7 @@ def main(argv=None) -> int:
     lines = [
         "## Settle (`benchmarks/bench_settle.py`)", "",
         f"`python -m benchmarks.bench_settle --count {args.count} --seed {args.seed} --gender {args.gender}`; "
-        f"{datetime.date.today()}, {platform.platform()}, {platform.machine()}, {os.cpu_count()} CPUs (shared "
+        f"{datetime.date.today()}, {machine()}, {platform.machine()}, {os.cpu_count()} CPUs (shared "
         f"with other jobs: CPU seconds of this process), MuJoCo {mujoco.__version__}, one thread. Shipped "
         f"{gender} model; {args.count} bodies per partition from the pose sampler (seed {args.seed}); default "
         f"bed ({bed.mat.name}, k_A {bed.stiffness_n_m3:.3g} N/m^3, G {bed.coupling_n_m:.3g} N/m).", "",

@@ -32,7 +32,6 @@ import argparse
 import collections
 import datetime
 import os
-import platform
 import shutil
 import tempfile
 from pathlib import Path
@@ -40,7 +39,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.common import dataset_counts, run_cli
+from benchmarks.common import dataset_counts, machine, run_cli
 from benchmarks.results import write_section
 from pressurepose.data.producers import attempt_rng
 from pressurepose.data.schema import GenerationConfig
@@ -178,7 +177,7 @@ def main(argv=None) -> int:
     per_step = [sum(x[3] for x in r["rows"]) / max(1, sum(x[1] for x in r["rows"])) for r in results.values()]
     text = "\n".join([
         "## Data generation as users run it (`benchmarks/bench_simulate.py`)", "",
-        f"`python -m benchmarks.bench_simulate`; {datetime.date.today()}, {platform.platform()}, {os.cpu_count()} "
+        f"`python -m benchmarks.bench_simulate`; {datetime.date.today()}, {machine()}, {os.cpu_count()} "
         f"CPUs shared with other jobs (load "
         f"average {load_before[0]:.1f} before, {load_after[0]:.1f} after), MuJoCo {mujoco.__version__}, "
         f"OMP_NUM_THREADS=1 (the simulation is CPU-only).", "",

@@ -48,9 +48,21 @@ def real_folder(path, benchmark: str) -> Path | None:
     return None
 
 
+def machine() -> str:
+    """'<platform>, <CPU model>': the machine a figure was measured on (CPU speed and instruction
+    sets, bf16 among them, differ between machines that share a platform string)."""
+    model = platform.processor()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), model)
+    except OSError:
+        pass
+    return f"{platform.platform()}, {model or 'CPU model unknown'}"
+
+
 def stamp() -> str:
-    """'YYYY-MM-DD, <platform>, N CPUs': when and where a section was measured."""
-    return f"{datetime.date.today().isoformat()}, {platform.platform()}, {os.cpu_count()} CPUs"
+    """'YYYY-MM-DD, <platform>, <CPU model>, N CPUs': when and where a section was measured."""
+    return f"{datetime.date.today().isoformat()}, {machine()}, {os.cpu_count()} CPUs"
 
 
 PR_SET_CHILD_SUBREAPER = 36
