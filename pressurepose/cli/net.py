@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from pressurepose.cli.args import add_recording_arguments, seed_arg
 
@@ -76,6 +77,12 @@ def run_train(args) -> int:
                          seed=args.seed, device=args.device, amp=not args.no_amp, save_every=args.save_every,
                          cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
                          turn_loss=args.turn_loss)
+    if args.cpu_amp:
+        from pressurepose.net.train import cpu_bf16, resolve_device
+
+        if resolve_device(args.device).type == "cpu" and cpu_bf16() is False:
+            print("warning: --cpu-amp on a CPU without bf16 instructions trains about 10x slower than without it "
+                  "(docs/training.md); drop --cpu-amp here", file=sys.stderr)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
     tensors = {k: v for k, v in data.tensors.items() if k != "partition"}

@@ -29,3 +29,15 @@ def test_train_then_infer_verbs(tmp_path, capsys):
                  str(tmp_path / "est")]) == 0
     assert (tmp_path / "est" / "mesh_001.ply").exists()
     assert "model:" in capsys.readouterr().out
+
+
+def test_train_warns_when_cpu_amp_meets_a_cpu_without_bf16(tmp_path, capsys, monkeypatch):
+    import pressurepose.net.train as train_module
+
+    write_toy_dataset(tmp_path / "data", n=4)
+    args = ["train", "--data", str(tmp_path / "data"), "--epochs-mod1", "0", "--epochs-mod2", "0", "--device", "cpu",
+            "--female", "toy", "--male", "toy", "--no-noise", "--cpu-amp"]
+    for has, warned in ((False, True), (True, False), (None, False)):
+        monkeypatch.setattr(train_module, "cpu_bf16", lambda has=has: has)
+        assert main(args + ["--out", str(tmp_path / f"run_{has}")]) == 0
+        assert ("without bf16 instructions" in capsys.readouterr().err) is warned
