@@ -155,7 +155,8 @@ def main() -> int:
     p.add_argument("--cnn", choices=("paper", "half"), default="half",
                    help="CNN widths passed to train [half]")
     p.add_argument("--cpu-amp", action=argparse.BooleanOptionalAction, default=True,
-                   help="bf16 autocast on the CPU [on]")
+                   help="bf16 autocast on the CPU, as the shipped model was trained [on]; on a CPU without bf16 "
+                        "instructions it trains about 10x slower (train warns): --no-cpu-amp there")
     p.add_argument("--contact-floor", type=float, default=5.0, help="input contact floor, mmHg [5]")
     p.add_argument("--turn-loss", type=float, default=2.0,
                    help="weight of the loss on the body's turn (train --turn-loss; not in the paper; 0: the "
