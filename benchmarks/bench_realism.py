@@ -28,7 +28,7 @@ from pathlib import Path
 from benchmarks.common import add_real_argument, real_folder, stamp
 from benchmarks.results import write_section
 from pressurepose.cli import main as cli
-from pressurepose.cli.eval import format_goals, format_realism
+from pressurepose.cli.eval import format_goals, format_real_intervals, format_realism
 from pressurepose.errors import BadInput
 from pressurepose.eval.realism_report import (
     goal_verdicts,
@@ -114,6 +114,8 @@ def main(argv=None) -> int:
         format_realism(drawn), "", format_goals(goal_verdicts(drawn)), "",
         "Like postures compared (`pressurepose realism --match-extent`):", "",
         format_realism(matched[0]), "", format_goals(goal_verdicts(matched[0])), "",
+        "The real people's 90 % interval of each statistic (resampling the people; a simulated value inside it "
+        "cannot be told from the real one with this many people):", "", format_real_intervals(matched[0]), "",
         f"The resample is seeded (seed 0 above). Over {MATCH_SEEDS} seeds the worst share gap spans "
         + ", ".join(f"{g} {min(x):.1f}-{max(x):.1f} pp" for g, x in gaps.items())
         + ": the draw alone moves it by that much.", ""])

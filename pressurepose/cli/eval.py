@@ -247,6 +247,7 @@ def run_realism(args) -> int:
     write_json_atomic(out / "realism.json", report)
     draw_report(real, sim, report, out / "realism.png", examples=args.examples)
     print(format_realism(report["headline"]))
+    print("\nThe real people's 90 % intervals (resampling the people):\n\n" + format_real_intervals(report["headline"]))
     print("\n" + format_region_contacts(report))
     print("\n" + format_goals(report["goals"]))
     for g, d in report["postures"].items():
@@ -289,6 +290,24 @@ def format_worst_gap(row: dict) -> str:
     """'4.4 (2.9-6.8)': the worst region's share gap with its bootstrap interval where there is one."""
     ci = row.get("share_worst_pp_interval")
     return f"{row['share_worst_pp']:.1f}" + (f" ({ci[0]:.1f}-{ci[1]:.1f})" if ci else "")
+
+
+def format_real_intervals(rows: list[dict]) -> str:
+    """A Markdown table of the real people's 90 % intervals of each headline statistic (rows of
+    :func:`pressurepose.eval.realism_report.headline`): how far each moves with other people like
+    them, so a simulated value inside it cannot be told from the real one."""
+    from pressurepose.eval.realism import REGIONS
+
+    cols = [("contact_taxels", "contact taxels", 1, "{:.0f}"), ("head_imprint", "head imprint", 1, "{:.2f}"),
+            ("mean_mmhg", "mean mmHg", 1, "{:.1f}"), ("peak_mmhg", "peak mmHg", 1, "{:.1f}"),
+            *((f"share_{r}", f"{r} %", 100, "{:.1f}") for r in REGIONS)]
+    lines = ["| posture | " + " | ".join(c[1] for c in cols) + " |", "|---" * (1 + len(cols)) + "|"]
+    for r in rows:
+        ci = r.get("real_interval") or {}
+        cells = ["-" if ci.get(k) is None else f"{fmt.format(scale * ci[k][0])}-{fmt.format(scale * ci[k][1])}"
+                 for k, _, scale, fmt in cols]
+        lines.append(f"| {r['posture']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def format_realism(rows: list[dict]) -> str:

@@ -346,6 +346,38 @@ def select(stats: dict, keep) -> dict:
     return {k: np.asarray(v)[keep] for k, v in stats.items()}
 
 
+# the statistics the realism report's headline compares, and how each is taken over images
+HEADLINE_STATS: dict[str, str] = {"contact_taxels": "median", "head_imprint": "rate", "mean_mmhg": "median",
+                                  "peak_mmhg": "median", **{f"share_{r}": "mean" for r in REGIONS}}
+
+
+def real_intervals(stats: dict, cluster=None, n_boot: int = 1000, level: float = 0.9, seed: int = 0) -> dict:
+    """How far the real people's headline statistics move when other people like them are drawn:
+    {statistic: [low, high]}, the percentile interval at ``level`` of each :data:`HEADLINE_STATS`
+    statistic (the median, rate or mean over images, as the report takes it) over ``n_boot``
+    resamples of the images (``cluster`` (N,): of the people, each person's images together).
+    A simulated statistic inside this interval cannot be told from the real one with this many
+    people. ``stats``: :func:`image_stats` of the real images (NaN entries left out)."""
+    n = len(np.asarray(stats["head_imprint"]))
+    c = np.arange(n) if cluster is None else np.unique(np.asarray(cluster).astype(str), return_inverse=True)[1]
+    if c.shape != (n,) or not 0 < level < 1 or n_boot < 10:
+        raise BadInput("cluster must have one label per image, level lie in (0, 1) and n_boot be at least 10")
+    if not n:
+        raise BadInput("no real images to resample")
+    members = [np.flatnonzero(c == k) for k in np.unique(c)]
+    rng = np.random.default_rng(seed)
+    draws = {k: np.empty(n_boot) for k in HEADLINE_STATS}
+    for b in range(n_boot):
+        idx = np.concatenate([members[k] for k in rng.integers(0, len(members), len(members))])
+        for k, how in HEADLINE_STATS.items():
+            v = np.asarray(stats[k], float)[idx]
+            v = v[np.isfinite(v)]
+            draws[k][b] = np.nan if not v.size else (np.median(v) if how == "median" else v.mean())
+    q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
+    return {k: [float(x) for x in np.nanpercentile(v, q)] if np.isfinite(v).any() else None
+            for k, v in draws.items()}
+
+
 def summarise(stats: dict) -> dict:
     """Distribution summaries: for each numeric statistic {n, median, q1, q3, mean}; for
     ``head_imprint`` {n, rate}. NaNs (images without contact) are left out."""

@@ -139,7 +139,9 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
     both sets know their people's statures, each group also has ``profile`` {'band', 'real',
     'simulated'}: the mean percent of the load per band of the stature below the head end
     (:func:`~.realism.load_profile`). Each group's ``regions`` holds, per region, the median contact
-    taxels and mean reading over them, real and simulated (:func:`~.realism.region_contact`).
+    taxels and mean reading over them, real and simulated (:func:`~.realism.region_contact`), and
+    ``real_interval`` the 90 % interval of each headline statistic over resamples of the real people
+    (:func:`~.realism.real_intervals`).
 
     ``match``: compare like postures: within each group the simulated images are resampled (seeded;
     :data:`MATCH_DRAWS_PER_IMAGE` draws per image) so that their extent ratio (:func:`~.realism.extent_ratio`: contact extent over stature, how
@@ -185,6 +187,7 @@ def realism_report(real: ImageSet, sim: ImageSet, rule: R.RegionRule = R.DEFAULT
                 seed=seed)
         except BadInput:  # no image with contact on one side: no interval
             pass
+        entry["real_interval"] = R.real_intervals(r, None if real.subject is None else real.subject[rsel], seed=seed)
         if real.height is not None and sim.height is not None:
             entry["profile"] = _profiles(real, sim, rsel, ssel, weight, rule)
         entry["regions"] = _region_contacts(real.pressure[rsel], sim.pressure[ssel], sim.mat, rule,
@@ -243,6 +246,7 @@ def headline(report: dict) -> list[dict]:
             "share_sim": {k: s[f"share_{k}"]["mean"] for k in R.REGIONS},
             "share_worst_pp": max(abs(d["distance"][f"share_{k}"]["mean_diff_pp"]) for k in R.REGIONS),
             "share_worst_pp_interval": d.get("share_interval", {}).get("worst"),
+            "real_interval": d.get("real_interval"),
             "off_mat_sim": s.get("off_mat", {}).get("median"),
         })
     return rows

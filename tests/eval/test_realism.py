@@ -145,6 +145,12 @@ def test_realism_verb_end_to_end(tmp_path):
     assert [sup["regions"][r]["mmhg_sim"] for r in R.REGIONS] == pytest.approx(want[:, 1])
     assert sup["regions"]["heels"]["mmhg_real"] == pytest.approx(8.0, rel=0.15)
     assert (out / "realism.png").stat().st_size > 10_000
+    # the real people's intervals: one person's images (no subject recorded: each image its own)
+    ci = sup["real_interval"]
+    assert set(ci) == set(R.HEADLINE_STATS)
+    assert ci["head_imprint"][0] <= 4 / 6 <= ci["head_imprint"][1] and ci["head_imprint"][1] <= 1.0
+    assert ci["contact_taxels"][0] <= sup["real"]["contact_taxels"]["median"] <= ci["contact_taxels"][1]
+    assert rep["headline"][0]["real_interval"] == ci
     assert main(["realism", "--real", str(tmp_path / "real"), "--synthetic", str(tmp_path / "nope.npz"),
                  "--out", str(out)]) == 2
     # like postures: needs the simulated statures, then reports how the match went
@@ -363,3 +369,25 @@ def test_the_realism_figure_is_sized_by_the_images_there(tmp_path, monkeypatch):
     image_axes = [ax for ax in figures[0].axes if ax.images]
     assert len(image_axes) == 3 + 2
     assert {ax.get_subplotspec().get_gridspec().ncols for ax in image_axes} == {2 * 3 + 1}
+
+
+def test_real_intervals_are_tight_for_alike_people_and_widen_with_their_spread():
+    n, people = 60, np.repeat(np.arange(6), 10)
+    stats = {"contact_taxels": np.full(n, 400.0), "head_imprint": np.ones(n, bool), "mean_mmhg": np.full(n, 14.0),
+             "peak_mmhg": np.full(n, 70.0), **{f"share_{r}": np.full(n, 1 / len(R.REGIONS)) for r in R.REGIONS}}
+    same = R.real_intervals(stats, people, n_boot=100)
+    assert same["contact_taxels"] == [400.0, 400.0] and same["head_imprint"] == [1.0, 1.0]
+    assert same["share_pelvis"] == pytest.approx([1 / len(R.REGIONS)] * 2)
+    # six people whose pelvis shares are 0.2 ... 0.3: the mean over resampled people stays inside
+    # their range, and spans much of it
+    spread = dict(stats, share_pelvis=np.linspace(0.2, 0.3, 6)[people])
+    lo, hi = R.real_intervals(spread, people, n_boot=400)["share_pelvis"]
+    assert 0.2 < lo < 0.25 < hi < 0.3 and hi - lo > 0.03
+    # with each image counted on its own the same images look surer than resampling people says
+    lo_i, hi_i = R.real_intervals(spread, None, n_boot=400)["share_pelvis"]
+    assert hi_i - lo_i < 0.6 * (hi - lo)
+    # NaN images (no contact) are left out; a statistic no image has is None
+    gaps = dict(stats, mean_mmhg=np.full(n, np.nan))
+    assert R.real_intervals(gaps, people, n_boot=20)["mean_mmhg"] is None
+    with pytest.raises(BadInput):
+        R.real_intervals(stats, people[:5], n_boot=20)
