@@ -358,19 +358,20 @@ def real_intervals(stats: dict, cluster=None, n_boot: int = 1000, level: float =
     resamples of the images (``cluster`` (N,): of the people, each person's images together).
     A simulated statistic inside this interval cannot be told from the real one with this many
     people. ``stats``: :func:`image_stats` of the real images (NaN entries left out)."""
-    n = len(np.asarray(stats["head_imprint"]))
-    c = np.arange(n) if cluster is None else np.unique(np.asarray(cluster).astype(str), return_inverse=True)[1]
+    values = {k: np.asarray(stats[k], float) for k in HEADLINE_STATS}
+    n = len(values["head_imprint"])
+    c = _cluster_labels(cluster, n)
     if c.shape != (n,) or not 0 < level < 1 or n_boot < 10:
         raise BadInput("cluster must have one label per image, level lie in (0, 1) and n_boot be at least 10")
     if not n:
         raise BadInput("no real images to resample")
-    members = [np.flatnonzero(c == k) for k in np.unique(c)]
+    members = _members(c)
     rng = np.random.default_rng(seed)
     draws = {k: np.empty(n_boot) for k in HEADLINE_STATS}
     for b in range(n_boot):
-        idx = np.concatenate([members[k] for k in rng.integers(0, len(members), len(members))])
+        idx = _draw_people(rng, members)
         for k, how in HEADLINE_STATS.items():
-            v = np.asarray(stats[k], float)[idx]
+            v = values[k][idx]
             v = v[np.isfinite(v)]
             draws[k][b] = np.nan if not v.size else (np.median(v) if how == "median" else v.mean())
     q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
@@ -441,6 +442,24 @@ def compare(sim: dict, real: dict) -> dict:
     return out
 
 
+def _cluster_labels(cluster, n: int) -> np.ndarray:
+    """Whole-number labels of each image's person (``cluster`` (n,), any labels), or each image its
+    own (None)."""
+    if cluster is None:
+        return np.arange(n)
+    return np.unique(np.asarray(cluster).astype(str), return_inverse=True)[1].reshape(-1)
+
+
+def _members(labels: np.ndarray) -> list[np.ndarray]:
+    """The image indices of each label's person."""
+    return [np.flatnonzero(labels == k) for k in np.unique(labels)]
+
+
+def _draw_people(rng: np.random.Generator, members: list[np.ndarray]) -> np.ndarray:
+    """Image indices of as many people drawn with replacement as there are, each with all their images."""
+    return np.concatenate([members[k] for k in rng.integers(0, len(members), len(members))])
+
+
 def share_gap_interval(sim_shares, real_shares, real_cluster=None, sim_weight=None, n_boot: int = 1000,
                        level: float = 0.9, seed: int = 0) -> dict:
     """Bootstrap intervals of the simulated-minus-real mean region shares, percentage points.
@@ -455,8 +474,7 @@ def share_gap_interval(sim_shares, real_shares, real_cluster=None, sim_weight=No
     if s.ndim != 2 or r.ndim != 2 or s.shape[1] != r.shape[1]:
         raise BadInput(f"shares of shape {s.shape} and {r.shape}; expected (n, R) and (m, R)")
     w = np.ones(len(s)) if sim_weight is None else np.asarray(sim_weight, float).reshape(-1)
-    c = np.arange(len(r)) if real_cluster is None else np.unique(np.asarray(real_cluster).astype(str),
-                                                                  return_inverse=True)[1].reshape(-1)
+    c = _cluster_labels(real_cluster, len(r))
     if w.shape != (len(s),) or c.shape != (len(r),) or not 0 < level < 1 or n_boot < 10:
         raise BadInput("sim_weight must have one weight per simulated image, real_cluster one label per real "
                        "image, level lie in (0, 1) and n_boot be at least 10")
@@ -464,15 +482,13 @@ def share_gap_interval(sim_shares, real_shares, real_cluster=None, sim_weight=No
     s, w, r, c = s[ks], w[ks], r[kr], c[kr]
     if not len(s) or not len(r):
         raise BadInput("no simulated or no real image with contact to compare shares of")
-    clusters = np.unique(c)
-    members = [np.flatnonzero(c == k) for k in clusters]
+    members = _members(c)
     rng = np.random.default_rng(seed)
     gaps = np.empty((n_boot, s.shape[1]))
     for b in range(n_boot):
         i = rng.integers(0, len(s), len(s))
         sim_mean = (w[i] @ s[i]) / w[i].sum()
-        j = np.concatenate([members[k] for k in rng.integers(0, len(members), len(members))])
-        gaps[b] = 100 * (sim_mean - r[j].mean(0))
+        gaps[b] = 100 * (sim_mean - r[_draw_people(rng, members)].mean(0))
     q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
     return {"regions": np.percentile(gaps, q, axis=0).T.tolist(),
             "worst": np.percentile(np.abs(gaps).max(1), q).tolist(), "level": level, "n_boot": n_boot,
