@@ -37,12 +37,13 @@ from pressurepose.body.model import BodyModel, asset_path
 from pressurepose.body.toy import toy_body_arrays
 from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import gendered_body, save_model
-from pressurepose.net.cnn import CNN_VARIANTS, flattened_size
+from pressurepose.net.cnn import flattened_size
 from pressurepose.net.infer import DEFAULT_MODEL, estimate, resolve_model
 from pressurepose.net.losses import LossScales, loss_l1, loss_l2
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
 from pressurepose.net.pmr import pmr
+from pressurepose.net.train_config import CNN_VARIANTS
 
 GRID = custom_mat(64, 27, 0.0286, 0.0286)
 # (label, cnn variant, bf16 autocast) of the training options measured
@@ -176,7 +177,8 @@ def bench_training(net: PressureNet, batch: int, steps: int, device: str = "cpu"
     dispatched per step on the CPU (:func:`dispatched_ops`), the host's waits per step on a GPU
     (:func:`host_waits`; the step itself synchronises once at its end to be timed).
     compile_cnns: the CNNs through ``torch.compile`` (measured only; training does not use it)."""
-    from pressurepose.net.train import TrainConfig, _forward
+    from pressurepose.net.train import _forward
+    from pressurepose.net.train_config import TrainConfig
 
     if compile_cnns:
         for m in (net.mod1, net.mod2):

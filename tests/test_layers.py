@@ -32,6 +32,21 @@ def test_generate_parses_its_arguments_without_the_heavy_libraries():
     subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO, capture_output=True)
 
 
+def test_train_parses_its_arguments_without_torch():
+    # the verb's defaults and choices come from the training configuration, which builds without torch
+    # (about 2 s of start-up); torch loads when training starts
+    code = ("import sys\nfrom pressurepose.cli import main\n"
+            "try:\n    main(['train', '--help'])\nexcept SystemExit:\n    pass\n"
+            "assert 'pressurepose.cli.net' in sys.modules\n"
+            "assert 'torch' not in sys.modules, sorted(m for m in sys.modules if m.startswith('pressurepose.'))")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO, capture_output=True)
+
+
+def test_training_does_load_torch():  # the check above can fail: the training loop's import is seen
+    code = "import sys, pressurepose.net.train\nassert 'torch' in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+
+
 def test_a_pasternak_press_does_load_scipy_fft():  # the check above can fail: the lazy import is seen
     code = ("import sys, numpy as np\nfrom pressurepose.sim.foundation import PasternakFoundation\n"
             "assert 'scipy.fft' not in sys.modules\n"

@@ -9,8 +9,7 @@ from pressurepose.cli.args import add_recording_arguments, seed_arg
 
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
-    from pressurepose.net.cnn import CNN_VARIANTS
-    from pressurepose.net.train import TrainConfig
+    from pressurepose.net.train_config import CNN_VARIANTS, TrainConfig
 
     d = TrainConfig()
     p.description = ("Train PressureNet (Mod1 with loss L1, then Mod2 with L2) on a generated dataset. "
@@ -62,7 +61,8 @@ def run_train(args) -> int:
     from pressurepose.files import check_output_path
     from pressurepose.net.checkpoint import body_model
     from pressurepose.net.data import load_dataset
-    from pressurepose.net.train import TrainConfig, train
+    from pressurepose.net.train import train
+    from pressurepose.net.train_config import TrainConfig
 
     check_output_path(args.out, "--out", directory=True)
     if args.limit is not None and args.limit < 1:

@@ -5,8 +5,8 @@ conv 3x3 -> 192; conv 3x3 -> 384; conv 3x3 -> 384 (stride 1, no padding; each ta
 linear (flattened features) -> 88 outputs. For a 128 x 54 input the flattened size is 67,200.
 
 ``channels`` changes the four layers' widths (the paper's (192, 192, 384, 384) by default). The
-named widths are :data:`CNN_VARIANTS`: the paper's and ``half`` (half as wide, about 3.5x faster to
-train on a CPU), which the shipped model uses.
+named widths are :data:`pressurepose.net.train_config.CNN_VARIANTS`: the paper's and ``half`` (half
+as wide, about 3.5x faster to train on a CPU), which the shipped model uses.
 
 Gender: as in the paper and its authors' code, the binary gender flag selects the body model the
 CNN's parameters drive (see :mod:`pressurepose.net.model`); the CNN itself does not see it. The
@@ -19,13 +19,9 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from pressurepose.net.train_config import PAPER_CHANNELS
+
 NUM_OUTPUTS = 88  # 10 betas, 3 translation, 6 root (x, y) pairs, 69 joint angles
-PAPER_CHANNELS = (192, 192, 384, 384)
-# named widths of the four conv layers: the paper's, and half as wide (the shipped model's)
-CNN_VARIANTS: dict[str, tuple[int, int, int, int]] = {
-    "paper": PAPER_CHANNELS,
-    "half": (96, 96, 192, 192),
-}
 
 
 def conv_output_size(height: int, width: int) -> tuple[int, int]:

@@ -26,13 +26,13 @@ from pressurepose.errors import (
 from pressurepose.mat import MatSpec
 from pressurepose.net.cnn import (
     NUM_OUTPUTS,
-    PAPER_CHANNELS,
     PressureCNN,
     conv_output_size,
     flattened_size,
 )
 from pressurepose.net.outputs import BodyParams, OutputConfig, OutputLayer
 from pressurepose.net.pmr import PMRConfig, PMRMaps, pmr
+from pressurepose.net.train_config import PAPER_CHANNELS
 from pressurepose.net.transforms import InputConfig, input_channels, map_channels
 
 GENDER_CODES = {"f": 0, "female": 0, "m": 1, "male": 1}
@@ -57,7 +57,7 @@ class NetConfig:
     gender_input: append the gender flag to the CNN features (not in the paper; default off).
     dropout: CNN dropout probability (paper 0.1).
     cnn_channels: the widths of the CNN's four conv layers (the paper's (192, 192, 384, 384); see
-    :data:`pressurepose.net.cnn.CNN_VARIANTS` for the named widths).
+    :data:`pressurepose.net.train_config.CNN_VARIANTS` for the named widths).
     """
 
     grid: MatSpec

@@ -9,22 +9,10 @@ the fixed blur of clean images.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 
+from pressurepose.net.train_config import NoiseConfig
 from pressurepose.net.transforms import contact_map, to_device_async
-
-
-@dataclass(frozen=True)
-class NoiseConfig:
-    """Parameters of :func:`add_noise` (units: mmHg for pressures, taxels for blur)."""
-
-    mult_std: float = 0.2
-    add_std: float = 14.0
-    clip_max: float = 100.0
-    blur_mean: float = 0.5
-    blur_std: float = 0.2
 
 
 def _randn(shape, generator: torch.Generator, like: torch.Tensor | None) -> torch.Tensor:

@@ -33,7 +33,7 @@ import io
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
@@ -45,98 +45,15 @@ from pressurepose.errors import BadInput, record_difference
 from pressurepose.files import atomic_write, write_json_atomic, write_text_atomic
 from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
-from pressurepose.net.cnn import CNN_VARIANTS
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
-from pressurepose.net.noise import NoiseConfig, add_noise
+from pressurepose.net.noise import add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import PMRConfig, pmr
+from pressurepose.net.train_config import CNN_VARIANTS, TrainConfig
 from pressurepose.net.transforms import InputConfig, apply_floor
 
-LR_SCHEDULES = ("constant", "cosine")
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Training options; the defaults are the paper's (appendix B.3, section 5.2).
-
-    loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
-    training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
-    out for the per-epoch validation (seeded split). gain: output gain (:mod:`.outputs`).
-    lr_mod2: Mod2's learning rate (default: lr, as the paper). lr_schedule: "constant" (the paper)
-    or "cosine" (each stage's rate falls from its lr to 0 along half a cosine over its epochs, set
-    at the start of every epoch). dropout: the CNN's dropout (paper 0.1). use_pmr, edges_contact,
-    noise: the paper's ablations.
-    save_every: epochs between resumable states (the last epoch of each stage is always saved).
-    device: "auto" (CUDA when available), "cpu", "cuda", ...; amp: mixed precision on CUDA.
-    cnn: the CNN's widths, a name in :data:`pressurepose.net.cnn.CNN_VARIANTS` ("paper", the
-    default, or "half", half as wide: about 3.5x faster to train on a CPU; the shipped model's). cpu_amp: run the
-    CNNs in bfloat16 autocast on the CPU (fast where the CPU has bf16 instructions; the body
-    layer, PMR and losses stay float32), like ``amp`` on CUDA. contact_floor_mmhg: the input's
-    sensor floor (``InputConfig.contact_floor_mmhg``; 0, the paper's, counts any non-zero reading
-    as contact); the model keeps it, so inference applies the same floor. turn_loss:
-    weight of the turn term (:func:`pressurepose.net.losses.turn_error`) in both modules' losses;
-    0, the paper's, leaves it out.
-    """
-
-    epochs_mod1: int = 100
-    epochs_mod2: int = 100
-    batch_size: int = 128
-    lr: float = 2e-5
-    lr_mod2: float | None = None
-    lr_schedule: str = "constant"
-    weight_decay: float = 5e-4
-    noise: bool = True
-    noise_config: NoiseConfig = field(default_factory=NoiseConfig)
-    use_pmr: bool = True
-    edges_contact: bool = True
-    upsample: int = 2
-    blur_sigma: float = 0.5
-    gender_input: bool = False
-    dropout: float = 0.1
-    gain: float = 0.1
-    loss_sigmas: str = "paper"
-    val_fraction: float = 0.0
-    seed: int = 0
-    device: str = "auto"
-    amp: bool = True
-    save_every: int = 1
-    cnn: str = "paper"
-    cpu_amp: bool = False
-    contact_floor_mmhg: float = 0.0
-    turn_loss: float = 0.0
-
-    def __post_init__(self):
-        for name in ("epochs_mod1", "epochs_mod2"):
-            if getattr(self, name) < 0:
-                raise BadInput(f"{name} = {getattr(self, name)}; expected >= 0")
-        for name in ("batch_size", "upsample", "save_every"):
-            if getattr(self, name) < 1:
-                raise BadInput(f"{name} = {getattr(self, name)}; expected a whole number >= 1")
-        for name in ("lr", "lr_mod2"):
-            v = getattr(self, name)
-            if v is not None and not 0 < v < float("inf"):
-                raise BadInput(f"{name} = {v}; expected a learning rate > 0")
-        if not 0 <= self.weight_decay < float("inf"):
-            raise BadInput(f"weight_decay = {self.weight_decay}; expected a number >= 0")
-        if self.lr_schedule not in LR_SCHEDULES:
-            raise BadInput(f"lr_schedule = {self.lr_schedule!r}; expected one of {', '.join(LR_SCHEDULES)}")
-        if self.loss_sigmas not in ("paper", "data"):
-            raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
-        if not 0 <= self.val_fraction < 1:
-            raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
-        if not 0 <= self.seed < 2 ** 63:  # torch's generators take 64-bit seeds
-            raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
-        if not 0 <= self.contact_floor_mmhg < float("inf"):
-            raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
-        if not 0 <= self.turn_loss < float("inf"):
-            raise BadInput(f"turn_loss = {self.turn_loss}; expected a weight >= 0")
-        if self.cnn not in CNN_VARIANTS:
-            raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
-
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
 
 
 @dataclass

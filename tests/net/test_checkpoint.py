@@ -193,8 +193,7 @@ def test_the_shipped_models_training_record_names_only_settings_training_knows()
     is one TrainConfig (and its NoiseConfig) has, and the record builds that config back unchanged."""
     from pressurepose.net.checkpoint import read_model_files
     from pressurepose.net.infer import DEFAULT_MODEL
-    from pressurepose.net.noise import NoiseConfig
-    from pressurepose.net.train import TrainConfig
+    from pressurepose.net.train_config import NoiseConfig, TrainConfig
 
     record = read_model_files(DEFAULT_MODEL)[0]["train"]
     known = {f.name for f in dataclasses.fields(TrainConfig)}

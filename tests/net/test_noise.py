@@ -1,6 +1,7 @@
 import torch
 
-from pressurepose.net.noise import NoiseConfig, add_noise
+from pressurepose.net.noise import add_noise
+from pressurepose.net.train_config import NoiseConfig
 
 torch.set_num_threads(1)
 

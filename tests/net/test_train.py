@@ -9,7 +9,8 @@ from pressurepose.errors import BadInput
 from pressurepose.mat import custom_mat
 from pressurepose.net.checkpoint import load_model
 from pressurepose.net.losses import joint_error, loss_l1
-from pressurepose.net.train import TrainConfig, as_training_data, train
+from pressurepose.net.train import as_training_data, train
+from pressurepose.net.train_config import TrainConfig
 from tests.net.synth import toy_body, toy_dataset
 
 torch.set_num_threads(1)

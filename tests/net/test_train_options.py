@@ -6,16 +6,15 @@ import torch
 
 from pressurepose.errors import BadInput
 from pressurepose.net.checkpoint import gendered_body, load_model, save_model
-from pressurepose.net.cnn import CNN_VARIANTS
 from pressurepose.net.losses import joint_error, loss_l1
 from pressurepose.net.model import PressureNet
 from pressurepose.net.train import (
-    TrainConfig,
     _forward,
     as_training_data,
     net_config_for,
     train,
 )
+from pressurepose.net.train_config import CNN_VARIANTS, TrainConfig
 from tests.net.synth import toy_body, toy_dataset
 from tests.net.test_train import GRID
 

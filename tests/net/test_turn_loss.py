@@ -9,7 +9,8 @@ import torch
 
 from pressurepose.errors import BadInput
 from pressurepose.net.losses import TURN_PAIRS, loss_l1, turn_error
-from pressurepose.net.train import TrainConfig, train
+from pressurepose.net.train import train
+from pressurepose.net.train_config import TrainConfig
 from tests.net.synth import toy_body, toy_dataset
 from tests.net.test_train import GRID
 
