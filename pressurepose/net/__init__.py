@@ -10,6 +10,6 @@ Modules (import from them; this package stays light):
 * ``pmr``: differentiable sink-depth, pressure (Q) and contact maps from a mesh
 * ``model``: ``PressureNet`` = Mod1 + Mod2 with the gendered body layer
 * ``losses``: L1 and L2; ``train``: the training loop; ``checkpoint``: safe saving/loading
-* ``infer``: ``estimate(pressure, gender, model) -> Estimate``; ``data``: generated datasets in memory
-* ``commands``: the ``train`` and ``infer`` verbs
+* ``infer``: ``estimate(pressure, gender, model) -> Estimate``; ``mirror``: averaging an image's reading
+  with its mirror's; ``data``: generated datasets in memory
 """
