@@ -105,7 +105,7 @@ REFUSED = [
                                         "--out", w.root / "e7"], "beyond_float32.npy' holds values up to 1e+39, out "
                                                                  "of range: too large for float32"),
     ("infer-other-mat", lambda w: ["infer", w.root / "slp.npy", "--gender", "f", "--model", w.model,
-                                   "--out", w.root / "e3"], "resample"),
+                                   "--out", w.root / "e3"], "goes in with that mat (`infer --mat"),
     ("calibrate-max-evals-zero", lambda w: ["calibrate", "--targets", "default", "--max-evals", 0,
                                             "--out", w.root / "bed.json"], "--max-evals"),
     ("view-body-huge-betas", lambda w: ["view-body", "--betas", 1e6, "--out", w.root / "b.png"], "within"),

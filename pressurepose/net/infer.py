@@ -245,8 +245,9 @@ def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> 
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != tuple(shape) or arr.shape[0] == 0:
-        hint = ("; an image of another mat can be resampled onto this one, keeping the total force, "
-                "with pressurepose.data.resample.resample_pressure" if arr.ndim in (2, 3) and arr.shape[0] else "")
+        hint = ("; a recording from another mat goes in with that mat (`infer --mat PRESET|mat.json --units ...`, "
+                "or estimate(..., mat=..., units=...)), which resamples it onto this one keeping the total force"
+                if arr.ndim in (2, 3) and arr.shape[0] else "")
         raise BadInput(f"{what} has shape {np.shape(pressure)}; this model's mat is {shape[0]} x {shape[1]} "
                        f"(expected ({shape[0]}, {shape[1]}) or (B, {shape[0]}, {shape[1]})){hint}")
     arr = finite_float32(arr, what)
