@@ -19,9 +19,10 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
     p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
-    from pressurepose.cli.net import add_body_arguments, add_mirror_argument
+    from pressurepose.cli.net import add_body_arguments, add_fit_argument, add_mirror_argument
 
     add_mirror_argument(p)
+    add_fit_argument(p)
     add_body_arguments(p)
 
 
@@ -50,7 +51,10 @@ def run_evaluate(args) -> int:
     if data.grid.shape != net.config.grid.shape:
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
-    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror)
+    from pressurepose.net.fit import FitConfig
+
+    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror,
+                      fit=FitConfig() if args.fit else None)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:
@@ -58,7 +62,8 @@ def run_evaluate(args) -> int:
         write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model or 'shipped'}\ndata: {args.data} "
                                              f"({len(data)} samples)\n\n{table}\n")
         write_json_atomic(out / "report.json", {"model": str(args.model or "shipped"), "data": str(args.data),
-                                                "mirror": bool(args.mirror), "summary": result["summary"]})
+                                                "mirror": bool(args.mirror),
+                                                "fit": bool(args.fit), "summary": result["summary"]})
         print(f"\nreport written to {out}")
     return 0
 
@@ -98,9 +103,10 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
     p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
-    from pressurepose.cli.net import add_mirror_argument
+    from pressurepose.cli.net import add_fit_argument, add_mirror_argument
 
     add_mirror_argument(p)
+    add_fit_argument(p)
 
 
 def run_evaluate_real(args) -> int:
@@ -133,7 +139,7 @@ def run_evaluate_real(args) -> int:
     if args.force_gender and args.gender == "both":
         raise BadInput("--force-gender needs --gender f or m")
     config = RealEvalConfig(gender=args.gender, force_gender=args.force_gender, contact_mmhg=args.contact_mmhg,
-                            batch_size=args.batch_size, mirror=args.mirror)
+                            batch_size=args.batch_size, mirror=args.mirror, fit=args.fit)
     real = read_real(args.dir, frames=args.frames)
     if args.gain is not None:
         if not args.gain > 0:
@@ -148,7 +154,8 @@ def run_evaluate_real(args) -> int:
     s = result.summary
     out.mkdir(parents=True, exist_ok=True)
     result.write_metrics(out / "metrics.json", data=str(args.dir), model=str(args.model or "shipped"),
-                         frames=args.frames, gender=args.gender, mirror=bool(args.mirror))
+                         frames=args.frames, gender=args.gender, mirror=bool(args.mirror),
+                         fit=bool(args.fit))
     write_json_atomic(out / "estimates.json", {"units": "metres, kg, degrees", "rows": result.per_estimate()})
     acc = "-" if s["posture_accuracy"] is None else f"{s['posture_accuracy']:.2f}"
     corr = "-" if s["stature_r"] is None else f"{s['stature_r']:.2f}"

@@ -53,7 +53,8 @@ class RealEvalConfig:
     one (the paper's, which counts any reading). weak_fraction: images whose
     raw total is below this fraction of their subject's median are left out. batch_size: images
     per forward pass. mirror: average each estimate with the reading of the mirrored image
-    (:mod:`pressurepose.net.mirror`)."""
+    (:mod:`pressurepose.net.mirror`). fit: move each estimated body to fit its image's print
+    (:mod:`pressurepose.net.fit`)."""
 
     gender: str = "both"
     force_gender: bool = False
@@ -61,6 +62,7 @@ class RealEvalConfig:
     weak_fraction: float = 0.1
     batch_size: int = 32
     mirror: bool = False
+    fit: bool = False
 
     def __post_init__(self):
         if self.gender not in GENDER_CHOICES:
@@ -160,7 +162,8 @@ def evaluate_real(real: RealImages, net, config: RealEvalConfig = RealEvalConfig
         raise BadInput(f"every image to score reads at most {peak:.3g} mmHg on the model's mat, not above the contact "
                        f"threshold {contact_mmhg:g} mmHg: the model would see empty mats and the scores would mean "
                        f"nothing{gain}")
-    est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror)
+    est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror,
+                   fit=config.fit)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],

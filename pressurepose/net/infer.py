@@ -34,6 +34,7 @@ from pressurepose.files import (
     write_json_atomic,
 )
 from pressurepose.mat import MatSpec
+from pressurepose.net.fit import FitConfig, fit_to_print
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.pmr import PMRConfig, surface_maps
 
@@ -53,6 +54,7 @@ class Estimate:
     the mattress top), both computed when first read (about 25 ms a body on one CPU core);
     gender: 'f' or 'm' per image; mod1_joints (B, 24, 3): Mod1's joints, for reference; grid: the
     model's mat; mirror: whether each body averages the readings of the image and of its mirror;
+    fitted: whether each body was moved to fit its image's print (:mod:`pressurepose.net.fit`);
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
     given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
     (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
@@ -73,6 +75,7 @@ class Estimate:
     mod1_joints: np.ndarray
     grid: MatSpec
     mirror: bool = False
+    fitted: bool = False
     frame: np.ndarray | None = None
     pmr: PMRConfig = PMRConfig()
     vertex_site: np.ndarray | None = None
@@ -147,7 +150,8 @@ class Estimate:
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "estimate.json", out / "estimate.npz"]
         write_json_atomic(paths[0], {"units": "metres, radians (SMPL axis-angle, root first); bed frame",
-                                     "mirror_averaged": bool(self.mirror), "estimates": self.to_records()})
+                                     "mirror_averaged": bool(self.mirror),
+                                     "fitted_to_print": bool(self.fitted), "estimates": self.to_records()})
         save_npz_atomic(paths[1], betas=self.betas, pose=self.pose, transl=self.transl, joints=self.joints,
                         vertices=self.vertices, faces=self.faces, q=self.q, contact=self.contact,
                         gender=np.array(self.gender),
@@ -333,13 +337,12 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
 
 @torch.inference_mode()
 def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], batch_size: int = 64,
-                progress: bool = False, mirror: bool = False):
+                progress: bool = False, mirror: bool = False, fit: FitConfig | None = None):
     """Both modules' outputs for checked pressure (B, R, C): a list of (out1, out2) per batch
     (progress: a progress bar over the batches; mirror: average each estimate with the network's
-    reading of the mirrored image, :mod:`pressurepose.net.mirror`, about twice the work)."""
+    reading of the mirrored image, :mod:`pressurepose.net.mirror`, about twice the work; fit: then
+    move Mod2's body to fit the image's print, :mod:`pressurepose.net.fit`)."""
     from tqdm import tqdm
-
-    from pressurepose.net.mirror import mirror_averaged
 
     if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
         raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
@@ -351,12 +354,27 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
     for s in tqdm(range(0, len(pressure), batch_size), desc="infer", unit="batch", disable=not progress):
         p = torch.from_numpy(pressure[s:s + batch_size]).to(device)
         gb = g[s:s + batch_size].to(device)
-        results.append(mirror_averaged(net, p, gb) if mirror else net(p, gb))
+        results.append(read_batch(net, p, gb, mirror, fit))
     return results
 
 
+def read_batch(net: PressureNet, pressure: torch.Tensor, gender: torch.Tensor, mirror: bool = False,
+               fit: FitConfig | None = None):
+    """(out1, out2) for one batch of clean images (B, R, C) and gender codes (B,): the network's
+    reading (``mirror``: averaged with its reading of the mirrored images), then (``fit``) Mod2's
+    body moved to fit each image's print."""
+    from pressurepose.net.mirror import mirror_averaged
+
+    out1, out2 = mirror_averaged(net, pressure, gender) if mirror else net(pressure, gender)
+    if fit is not None:
+        params = fit_to_print(net.body, out2.params, gender, pressure, net.config.grid,
+                              net.config.inputs.contact_floor_mmhg, fit)
+        out2 = net.pose_body(params, gender, maps=out2.maps is not None)
+    return out1, out2
+
+
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
-             progress: bool = False, mirror: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
+             progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False, *, mat=None, units: str | None = None, weight_kg=None,
              gain: float | None = None, head_row: str = "first", what: str | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
@@ -373,6 +391,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     bodies: (female, male) body model specs overriding the stored ones (see :func:`resolve_model`).
     mirror: also read each image's left-right mirror and average the two bodies
     (:mod:`pressurepose.net.mirror`; about twice the work).
+    fit: True (the default :class:`~pressurepose.net.fit.FitConfig`) or a FitConfig: move each
+    estimated body to fit its image's print after the network (:mod:`pressurepose.net.fit`; about
+    0.3 s of one CPU core an image).
     what: the input's name in messages (default: the file, or 'pressure').
 
     Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings` and
@@ -407,7 +428,10 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         notes = pressure_warnings(arr, net.config.grid.max_mmhg, what)
     for note in notes + floor_warnings(arr, net.config.inputs.contact_floor_mmhg, what):
         warnings.warn(note, stacklevel=2)
-    parts = run_network(net, arr, genders, batch_size, progress, mirror)
+    fit_config = FitConfig() if fit is True else (fit or None)
+    if fit_config is not None and not isinstance(fit_config, FitConfig):
+        raise BadInput(f"fit is {fit!r}; expected True, False or a FitConfig")
+    parts = run_network(net, arr, genders, batch_size, progress, mirror, fit_config)
 
     def cat(fn):
         items = [fn(o1, o2) for o1, o2 in parts]
@@ -417,7 +441,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
-                    mirror=bool(mirror), frame=frame, pmr=net.config.pmr, vertex_site=vertex_sites_of(net, genders))
+                    mirror=bool(mirror), fitted=fit_config is not None, frame=frame, pmr=net.config.pmr, vertex_site=vertex_sites_of(net, genders))
 
 
 _VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
