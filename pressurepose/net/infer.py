@@ -374,8 +374,9 @@ def read_batch(net: PressureNet, pressure: torch.Tensor, gender: torch.Tensor, m
 
 
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
-             progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False, *, mat=None, units: str | None = None, weight_kg=None,
-             gain: float | None = None, head_row: str = "first", what: str | None = None) -> Estimate:
+             progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False, *, mat=None,
+             units: str | None = None, weight_kg=None, gain: float | None = None, head_row: str = "first",
+             what: str | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch); or,
