@@ -24,13 +24,12 @@ independent: each body's fit depends on its image only, whatever else is in the 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 from pressurepose.mat import MatSpec
 from pressurepose.net.outputs import BodyParams
 
@@ -53,18 +52,12 @@ class FitConfig:
     search_vertices: int = 1500
 
     def __post_init__(self):
-        for name in ("steps", "search_vertices"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise BadInput(f"fit {name} is {v!r}; expected a whole number >= 1")
+        require_whole("fit steps", self.steps, 1, 10_000)
+        require_whole("fit search_vertices", self.search_vertices, 1, 10_000_000)
         for name in ("lr", "max_reach_m"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise BadInput(f"fit {name} is {v!r}; expected a positive number")
+            require_positive(f"fit {name}", getattr(self, name))
         for name in ("print_weight", "lift_weight", "pose_prior", "transl_prior"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise BadInput(f"fit {name} is {v!r}; expected a number >= 0")
+            require_non_negative(f"fit {name}", getattr(self, name))
 
 
 def taxel_centres(grid: MatSpec) -> torch.Tensor:
