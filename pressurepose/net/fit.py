@@ -6,8 +6,9 @@ translation; the shape stays the network's) for a few steps of Adam so that
 
 * every loaded taxel (reading more than the model's contact floor) has a vertex of the body under
   it: the taxel's centre to the nearest vertex at or below the mattress top, across the bed
-  (x, y), plus that vertex's height above the top; clipped at ``max_reach_m`` so a print far from
-  the body (a wedge, another object) pulls no harder than one at that distance;
+  (x, y), plus that vertex's height above the top; clipped at ``max_reach_m``, so print farther
+  than that from the body (a wedge, another object) does not pull it (print nearer than that does:
+  a wedge beside a propped body pulls the body onto it);
 * no vertex sinks into the mattress over a taxel that reads nothing (the vertex's sink, squared);
 * the pose and translation stay near the network's (a quadratic prior).
 
@@ -19,7 +20,9 @@ translation change ``dt`` (m)::
 
 Each loaded taxel's nearest vertex is searched among a fixed, seeded subset of the mesh's vertices
 (``search_vertices``) with no gradient; the distance to it carries the gradient. Images are
-independent: each body's fit depends on its image only, whatever else is in the batch.
+independent: each body's fit depends on its image only, whatever else is in the batch. The default
+settings were chosen on simulated images of every partition; docs/training.md has what they do to
+simulated and real estimates.
 """
 
 from __future__ import annotations
