@@ -104,3 +104,9 @@ def test_evaluate_verb(setup, capsys):
     rep_m = json.loads((root / "rep_m" / "report.json").read_text())
     assert rep_m["mirror"] is True and rep["mirror"] is False and rep_m["summary"]["all"]["count"] == 4
     assert rep_m["summary"]["all"]["mod2"] != rep["summary"]["all"]["mod2"]  # an untrained net is not symmetric
+    assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep_f"),
+                 "--fit"]) == 0
+    rep_f = json.loads((root / "rep_f" / "report.json").read_text())
+    assert rep_f["fit"] is True and rep["fit"] is False and rep_f["summary"]["all"]["count"] == 4
+    assert rep_f["summary"]["all"]["mod2"] != rep["summary"]["all"]["mod2"]  # Mod2's bodies moved
+    assert rep_f["summary"]["all"]["mod1"] == rep["summary"]["all"]["mod1"]  # Mod1's did not

@@ -98,6 +98,9 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
     assert main(["evaluate-real", str(folder2), "--out", str(tmp_path / "out3"), "--mirror"]) == 0
     m3 = json.loads((tmp_path / "out3" / "metrics.json").read_text())
     assert m3["mirror"] is True and m2["mirror"] is False and m3["n_estimates"] == 4
+    assert main(["evaluate-real", str(folder2), "--out", str(tmp_path / "out4"), "--fit"]) == 0
+    m4 = json.loads((tmp_path / "out4" / "metrics.json").read_text())
+    assert m4["fit"] is True and m2["fit"] is False and m4["n_estimates"] == 4
 
 
 def test_evaluate_real_bad_inputs(tmp_path, capsys):
