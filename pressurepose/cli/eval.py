@@ -51,10 +51,7 @@ def run_evaluate(args) -> int:
     if data.grid.shape != net.config.grid.shape:
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
-    from pressurepose.net.fit import FitConfig
-
-    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror,
-                      fit=FitConfig() if args.fit else None)
+    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
     table = format_table(result["summary"])
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:

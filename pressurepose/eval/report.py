@@ -13,7 +13,7 @@ import torch
 from pressurepose.errors import BadInput
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
-from pressurepose.net.fit import FitConfig
+from pressurepose.net.fit import FitConfig, fit_config
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
 from pressurepose.pose.posture import roll_angle
@@ -41,15 +41,15 @@ def _layer_forward(net: PressureNet, gender: int):
 
 @torch.no_grad()
 def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = False, mirror: bool = False,
-             fit: FitConfig | None = None) -> dict:
+             fit: bool | FitConfig = False) -> dict:
     """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data`` (a
     :class:`pressurepose.net.data.LoadedData`), plus the summary (:func:`summarise`).
 
     Vertex errors compare with the true bodies posed by the network's own body layer (same
     topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
     mirror: average each estimate with the network's reading of the mirrored image
-    (:mod:`pressurepose.net.mirror`). fit: then move Mod2's body to fit each image's print
-    (:mod:`pressurepose.net.fit`).
+    (:mod:`pressurepose.net.mirror`). fit: True or a FitConfig: then move Mod2's body to fit each
+    image's print (:mod:`pressurepose.net.fit`).
     """
     from tqdm import tqdm
 
@@ -59,6 +59,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
         raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
     if len(data) == 0:
         raise BadInput("no samples to evaluate")
+    fitting = fit_config(fit)
     net.eval()
     device = next(net.parameters()).device
     t = data.tensors
@@ -71,7 +72,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
         sl = slice(s, min(s + batch_size, n))
         gender = t["gender"][sl].to(device)
         pressure = t["pressure"][sl].to(device)
-        out1, out2 = read_batch(net, pressure, gender, mirror, fit)
+        out1, out2 = read_batch(net, pressure, gender, mirror, fitting)
         true_verts, _ = net.body(_params(t["betas"][sl].to(device), t["pose"][sl].to(device),
                                          t["transl"][sl].to(device)), gender)
         tv = true_verts.cpu().numpy()

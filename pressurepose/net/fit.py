@@ -63,6 +63,16 @@ class FitConfig:
             require_non_negative(f"fit {name}", getattr(self, name))
 
 
+def fit_config(fit) -> FitConfig | None:
+    """The fit asked for: True (the default settings), a FitConfig, or False / None (no fit);
+    BadInput for anything else."""
+    if fit is True:
+        return FitConfig()
+    if fit is False or fit is None or isinstance(fit, FitConfig):
+        return fit or None
+    raise BadInput(f"fit is {fit!r}; expected True, False or a FitConfig")
+
+
 def taxel_centres(grid: MatSpec) -> torch.Tensor:
     """(R * C, 2) x, y of each taxel's centre, m, row-major (x across the bed, y along it)."""
     y, x = np.meshgrid((np.arange(grid.rows) + 0.5) * grid.pitch_row_m,
@@ -75,17 +85,20 @@ def _search_subset(num_vertices: int, count: int) -> torch.Tensor:
     return torch.from_numpy(np.sort(np.random.default_rng(0).choice(num_vertices, count, replace=False)))
 
 
-def print_loss(verts: torch.Tensor, loaded: torch.Tensor, grid: MatSpec, config: FitConfig,
-               search: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """The two image terms of the fit for vertices (B, V, 3) (bed frame, m; z = 0 the mattress top)
-    and loaded taxels (B, R, C) bool: (print (B,), lift (B,)), unweighted (module docstring)."""
-    b = verts.shape[0]
-    flat = loaded.reshape(b, -1)
-    centres = taxel_centres(grid).to(verts)
+def _prepare(loaded: torch.Tensor, grid: MatSpec, dtype: torch.dtype) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """What the image terms need of loaded taxels (B, R, C) bool, built once per image: each
+    image's loaded taxels first, as centres (B, K, 2) m and a mask (B, K) (K the most any image
+    has; the mask marks the real ones), and the flat (B, R * C) loaded map."""
+    flat = loaded.reshape(loaded.shape[0], -1)
     k = max(int(flat.sum(1).max()), 1)
     order = torch.argsort((~flat).to(torch.int8), dim=1, stable=True)[:, :k]  # loaded taxels first
-    mask = torch.gather(flat, 1, order).to(verts.dtype)  # (B, K)
-    where = centres[order]  # (B, K, 2)
+    centres = taxel_centres(grid).to(device=loaded.device, dtype=dtype)[order]
+    return centres, torch.gather(flat, 1, order).to(dtype), flat
+
+
+def _terms(verts: torch.Tensor, prepared, grid: MatSpec, config: FitConfig,
+           search: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+    where, mask, flat = prepared
     cand = verts if search is None else verts[:, search]
     with torch.no_grad():
         d2 = torch.cdist(where, cand[..., :2]).square_() + torch.relu(cand[..., 2]).square()[:, None, :]
@@ -103,6 +116,14 @@ def print_loss(verts: torch.Tensor, loaded: torch.Tensor, grid: MatSpec, config:
     return print_term, lift_term
 
 
+def print_loss(verts: torch.Tensor, loaded: torch.Tensor, grid: MatSpec, config: FitConfig,
+               search: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """The two image terms of the fit for vertices (B, V, 3) (bed frame, m; z = 0 the mattress top)
+    and loaded taxels (B, R, C) bool: (print (B,), lift (B,)), unweighted (module docstring);
+    search: the vertices searched for each loaded taxel's nearest (default all)."""
+    return _terms(verts, _prepare(loaded, grid, verts.dtype), grid, config, search)
+
+
 def fit_to_print(body, params: BodyParams, gender: torch.Tensor, pressure: torch.Tensor, grid: MatSpec,
                  floor_mmhg: float, config: FitConfig = FitConfig()) -> BodyParams:
     """The estimated bodies ``params`` (batch B) moved to fit their images' prints (module
@@ -115,7 +136,7 @@ def fit_to_print(body, params: BodyParams, gender: torch.Tensor, pressure: torch
                        f"{grid.rows}, {grid.cols})")
     with torch.inference_mode(False), torch.enable_grad():
         base = {k: v.detach().clone().float() for k, v in vars(params).items() if torch.is_tensor(v)}
-        loaded = (pressure > floor_mmhg).clone()
+        prepared = _prepare((pressure > floor_mmhg).clone(), grid, torch.float32)
         gender = gender.clone()
         d_root = torch.zeros_like(base["global_orient"], requires_grad=True)
         d_pose = torch.zeros_like(base["body_pose"], requires_grad=True)
@@ -132,7 +153,7 @@ def fit_to_print(body, params: BodyParams, gender: torch.Tensor, pressure: torch
             verts, _ = body(moved(), gender)
             if search is None:
                 search = _search_subset(verts.shape[1], config.search_vertices).to(verts.device)
-            p, lift = print_loss(verts, loaded, grid, config, search)
+            p, lift = _terms(verts, prepared, grid, config, search)
             prior = (config.pose_prior * ((d_root ** 2).sum(1) + (d_pose ** 2).sum(1))
                      + config.transl_prior * (d_transl ** 2).sum(1))
             loss = (config.print_weight * p + config.lift_weight * lift + prior).sum()

@@ -34,7 +34,7 @@ from pressurepose.files import (
     write_json_atomic,
 )
 from pressurepose.mat import MatSpec
-from pressurepose.net.fit import FitConfig, fit_to_print
+from pressurepose.net.fit import FitConfig, fit_config, fit_to_print
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.pmr import PMRConfig, surface_maps
 
@@ -404,6 +404,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     """
     import warnings
 
+    fitting = fit_config(fit)
     net = resolve_model(model, bodies)
     frame = None
     if isinstance(pressure, RealImages) or mat is not None:
@@ -429,10 +430,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         notes = pressure_warnings(arr, net.config.grid.max_mmhg, what)
     for note in notes + floor_warnings(arr, net.config.inputs.contact_floor_mmhg, what):
         warnings.warn(note, stacklevel=2)
-    fit_config = FitConfig() if fit is True else (fit or None)
-    if fit_config is not None and not isinstance(fit_config, FitConfig):
-        raise BadInput(f"fit is {fit!r}; expected True, False or a FitConfig")
-    parts = run_network(net, arr, genders, batch_size, progress, mirror, fit_config)
+    parts = run_network(net, arr, genders, batch_size, progress, mirror, fitting)
 
     def cat(fn):
         items = [fn(o1, o2) for o1, o2 in parts]
@@ -442,7 +440,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     transl=cat(lambda a, b: b.params.transl), joints=cat(lambda a, b: b.joints),
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
-                    mirror=bool(mirror), fitted=fit_config is not None, frame=frame, pmr=net.config.pmr, vertex_site=vertex_sites_of(net, genders))
+                    mirror=bool(mirror), fitted=fitting is not None, frame=frame, pmr=net.config.pmr,
+                    vertex_site=vertex_sites_of(net, genders))
 
 
 _VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
