@@ -45,10 +45,12 @@ def require_numbers(name: str, v, n: int, positive: bool = False) -> tuple[float
     return tuple(float(x) for x in v)
 
 
-def require_whole(name: str, v, lo: int, hi: int) -> None:
-    """BadInput unless ``v`` is a whole number (an int, not a bool) from ``lo`` to ``hi``."""
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-        raise BadInput(f"{name} is {v!r}; expected a whole number from {lo} to {hi}")
+def require_whole(name: str, v, lo: int, hi: int | None = None) -> None:
+    """BadInput unless ``v`` is a whole number (an int or numpy integer, not a bool) from ``lo`` to
+    ``hi``, or ``lo`` and up when ``hi`` is None."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo or (hi is not None and v > hi):
+        expected = f">= {lo}" if hi is None else f"from {lo} to {hi}"
+        raise BadInput(f"{name} is {v!r}; expected a whole number {expected}")
 
 
 def require_positive(name: str, v) -> None:
