@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 from pressurepose.pose.posefile import PoseFile
 
 # BodiTrak BT-3510 sensing area (64 x 27 taxels at 28.6 mm) centred on a twin XL mattress (39 x 80 in),
@@ -102,13 +102,9 @@ class SamplerConfig:
 
     def __post_init__(self):
         for f in ("beta_range", "yaw_max", "shift_max", "height_band", "clearance", "beta_sd",
-                  "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m",
-                  "collision_radius_scale"):
-            v = getattr(self, f)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise BadInput(f"sampler {f} is {v!r}; expected a finite number >= 0")
-        if not self.collision_radius_scale > 0:
-            raise BadInput(f"sampler collision_radius_scale is {self.collision_radius_scale!r}; expected a number > 0")
+                  "yaw_sd", "across_sd_m", "across_sd_lateral_m", "head_gap_m", "along_sd_m", "side_margin_m"):
+            require_non_negative(f"sampler {f}", getattr(self, f))
+        require_positive("sampler collision_radius_scale", self.collision_radius_scale)
         if self.shapes not in SHAPES:
             raise BadInput(f"sampler shapes is {self.shapes!r}; expected one of {', '.join(SHAPES)}")
         if self.placement not in PLACEMENTS:
@@ -125,9 +121,7 @@ class SamplerConfig:
         object.__setattr__(self, "bed_height_band", lo_hi)
         for f in ("candidates_per_round", "off_bed_patience", "bin_patience", "max_bin_redraws",
                   "cross_patience", "collision_patience"):
-            v = getattr(self, f)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise BadInput(f"sampler {f} is {v!r}; expected a whole number >= 1")
+            require_whole(f"sampler {f}", getattr(self, f), 1)
         m = tuple(float(v) for v in self.mattress)
         if len(m) != 4 or not all(math.isfinite(v) for v in m) or not (m[0] < m[1] and m[2] < m[3]):
             raise BadInput(f"sampler mattress is {self.mattress!r}; expected (x_min, x_max, y_min, y_max) "
