@@ -8,14 +8,13 @@ made with. Imports no simulator: a dataset's or a command's settle is checked wi
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pressurepose.body.contact import START_OVERLAP_TOL_M
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 from pressurepose.sim.springs import LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS
 
 # joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
@@ -104,28 +103,19 @@ class SettleConfig:
     def __post_init__(self):
         for name in ("max_steps", "zero_every", "rest_hold_steps", "iterations", "ls_iterations",
                      "taxels_per_cell", "posture_check_steps", "coarse_after_steps"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise BadInput(f"settle {name} is {v!r}; expected a positive whole number")
+            require_whole(f"settle {name}", getattr(self, name), 1)
         for name in ("timestep_s", "rest_speed_m_s", "rest_accel_m_s2", "tolerance", "max_speed_m_s",
                      "fall_depth_m", "limit_stiffness_factor"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise BadInput(f"settle {name} is {v!r}; expected a positive number")
+            require_positive(f"settle {name}", getattr(self, name))
         if self.cone not in CONES:
             raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(CONES)}")
-        v = self.spine_stiffness
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
-            raise BadInput(f"settle spine_stiffness is {v!r}; expected a positive number of N m/rad, "
-                           f"or None for the paper's")
+        if self.spine_stiffness is not None:
+            require_positive("settle spine_stiffness (N m/rad; None: the paper's)", self.spine_stiffness)
         c = self.coarse_factor
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 1.0 <= c <= 4.0:
             raise BadInput(f"settle coarse_factor is {c!r}; expected a number from 1 (no coarse step) to 4")
         for name in ("drop_clearance_m", "self_collision_tol_m"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise BadInput(f"settle {name} is {v!r}; expected zero or a positive number")
-
+            require_non_negative(f"settle {name}", getattr(self, name))
 
 def settle_preset(name: str) -> SettleConfig:
     """The :class:`SettleConfig` of a named settle: 'relaxed' (the defaults: neck and spine relax so
