@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.ragdoll import BED_BIT
 
@@ -65,13 +65,9 @@ class CellBed:
         if self.nx < 1 or self.ny < 1:
             raise BadInput(f"cell bed has {self.ny} x {self.nx} cells; expected at least one")
         for name in ("dx", "dy", "k_cell", "cell_mass", "thickness_m", "contact_timeconst_s"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise BadInput(f"cell bed {name} is {v!r}; expected a positive number")
+            require_positive(f"cell bed {name}", getattr(self, name))
         for name in ("b_cell", "coupling_x", "coupling_y", "friction"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise BadInput(f"cell bed {name} is {v!r}; expected zero or a positive number")
+            require_non_negative(f"cell bed {name}", getattr(self, name))
 
     @property
     def stiffness_n_m3(self) -> float:
@@ -104,8 +100,7 @@ def cell_bed(bed: BedSpec, cell_m: float | None = None, *, taxels_per_cell: int 
     """
     x_min, x_max, y_min, y_max = bed.mattress_bounds
     w, length = x_max - x_min, y_max - y_min
-    if isinstance(taxels_per_cell, bool) or not isinstance(taxels_per_cell, (int, np.integer)) or taxels_per_cell < 1:
-        raise BadInput(f"taxels_per_cell is {taxels_per_cell!r}; expected a whole number >= 1")
+    require_whole("taxels_per_cell", taxels_per_cell, 1)
     cx = taxels_per_cell * bed.mat.pitch_col_m if cell_m is None else float(cell_m)
     cy = taxels_per_cell * bed.mat.pitch_row_m if cell_m is None else float(cell_m)
     if not (math.isfinite(cx) and cx > 0):
