@@ -10,9 +10,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-import numpy as np
-
-from pressurepose.errors import BadInput, require_positive
+from pressurepose.errors import BadInput, require_positive, require_whole
 
 # taxel pitches a pressure mat can have (1 mm to 0.5 m), and the most taxels a mat grid may hold
 MIN_PITCH_M, MAX_PITCH_M = 0.001, 0.5
@@ -37,10 +35,8 @@ class MatSpec:
 
     def __post_init__(self):
         for field in ("rows", "cols"):
-            v = getattr(self, field)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise BadInput(f"mat {field} is {v!r}; expected a positive whole number")
-            object.__setattr__(self, field, int(v))
+            require_whole(f"mat {field}", getattr(self, field), 1)
+            object.__setattr__(self, field, int(getattr(self, field)))
         for field in ("pitch_row_m", "pitch_col_m", "max_mmhg"):
             require_positive(f"mat {field}", getattr(self, field))
             object.__setattr__(self, field, float(getattr(self, field)))

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative
 
 CONDITION_NAMES: tuple[str, ...] = ("mattress_stiffness_n_m3", "tissue_modulus_pa", "sensor_gain",
                                     "sensor_threshold_mmhg", "mat_offset_x_m", "mat_offset_y_m",
@@ -71,9 +71,7 @@ class RandomizationRanges:
                 raise BadInput(f"randomisation {name} is {getattr(self, name)!r}; expected (low, high), "
                                f"0 <= low <= high")
         for name in ("mat_offset_m", "mat_rotation_rad"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise BadInput(f"randomisation {name} is {v!r}; expected a finite number >= 0")
+            require_non_negative(f"randomisation {name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
