@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 
 LR_SCHEDULES = ("constant", "cosine")
 PAPER_CHANNELS = (192, 192, 384, 384)
@@ -86,29 +86,22 @@ class TrainConfig:
 
     def __post_init__(self):
         for name in ("epochs_mod1", "epochs_mod2"):
-            if getattr(self, name) < 0:
-                raise BadInput(f"{name} = {getattr(self, name)}; expected >= 0")
+            require_whole(name, getattr(self, name), 0)
         for name in ("batch_size", "upsample", "save_every"):
-            if getattr(self, name) < 1:
-                raise BadInput(f"{name} = {getattr(self, name)}; expected a whole number >= 1")
+            require_whole(name, getattr(self, name), 1)
         for name in ("lr", "lr_mod2"):
-            v = getattr(self, name)
-            if v is not None and not 0 < v < float("inf"):
-                raise BadInput(f"{name} = {v}; expected a learning rate > 0")
-        if not 0 <= self.weight_decay < float("inf"):
-            raise BadInput(f"weight_decay = {self.weight_decay}; expected a number >= 0")
+            if getattr(self, name) is not None:
+                require_positive(f"{name} (learning rate)", getattr(self, name))
+        require_non_negative("weight_decay", self.weight_decay)
         if self.lr_schedule not in LR_SCHEDULES:
             raise BadInput(f"lr_schedule = {self.lr_schedule!r}; expected one of {', '.join(LR_SCHEDULES)}")
         if self.loss_sigmas not in ("paper", "data"):
             raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
         if not 0 <= self.val_fraction < 1:
             raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
-        if not 0 <= self.seed < 2 ** 63:  # torch's generators take 64-bit seeds
-            raise BadInput(f"seed = {self.seed}; expected a whole number from 0 to 2**63 - 1")
-        if not 0 <= self.contact_floor_mmhg < float("inf"):
-            raise BadInput(f"contact_floor_mmhg = {self.contact_floor_mmhg}; expected a pressure >= 0 (mmHg)")
-        if not 0 <= self.turn_loss < float("inf"):
-            raise BadInput(f"turn_loss = {self.turn_loss}; expected a weight >= 0")
+        require_whole("seed", self.seed, 0, 2 ** 63 - 1)  # torch's generators take 64-bit seeds
+        require_non_negative("contact_floor_mmhg (a pressure, mmHg)", self.contact_floor_mmhg)
+        require_non_negative("turn_loss (a weight)", self.turn_loss)
         if self.cnn not in CNN_VARIANTS:
             raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
 
