@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pressurepose.calibrate.measurements import CapsuleMeasurements
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.sim.bed import BedSpec
 from pressurepose.sim.foundation import PressFailed
 from pressurepose.sim.press import (
@@ -162,8 +162,7 @@ def minimize_cma(objective, names: tuple[str, ...], start: dict[str, float], *, 
     unknown = [n for n in names if n not in PARAMETERS]
     if unknown or not names:
         raise BadInput(f"cannot fit {unknown or 'nothing'}; expected some of {', '.join(PARAMETERS)}")
-    if not isinstance(popsize, int) or popsize < 4:
-        raise BadInput(f"popsize is {popsize!r}; expected a whole number >= 4")
+    require_whole("popsize", popsize, 4)
     params = [PARAMETERS[n] for n in names]
     x0 = np.clip([p.unit(start[p.name]) for p in params], 0.02, 0.98)
     rng = np.random.default_rng(seed)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
 from pressurepose.net.fit import FitConfig, fit_config
@@ -55,8 +55,7 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
 
     from pressurepose.net.infer import read_batch
 
-    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-        raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
+    require_whole("batch size", batch_size, 1)
     if len(data) == 0:
         raise BadInput("no samples to evaluate")
     fitting = fit_config(fit)

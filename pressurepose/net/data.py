@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.mat import MatSpec, custom_mat
 
 FIELDS = ("pressure", "betas", "pose", "transl", "joints")
@@ -35,8 +35,8 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
     limit: keep only the first ``limit`` samples (>= 1). BadInput (from the reader) for a missing,
     incomplete or corrupt dataset or pack, and for a folder holding more than one split (train and test).
     """
-    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, (int, np.integer)) or limit < 1):
-        raise BadInput(f"limit is {limit!r}; expected a whole number >= 1 (or None for all samples)")
+    if limit is not None:
+        require_whole("limit (None: all samples)", limit, 1)
     if Path(path).suffix.lower() == ".npz":
         if not Path(path).is_file():
             raise BadInput(f"training pack {path} does not exist (write one with `pressurepose pack DATA --out FILE.npz`)")

@@ -26,7 +26,7 @@ import torch
 from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
-from pressurepose.errors import BadInput, finite_float32
+from pressurepose.errors import BadInput, finite_float32, require_whole
 from pressurepose.files import (
     atomic_write,
     remove_stale_numbered,
@@ -344,8 +344,7 @@ def run_network(net: PressureNet, pressure: np.ndarray, genders: Sequence[str], 
     move Mod2's body to fit the image's print, :mod:`pressurepose.net.fit`)."""
     from tqdm import tqdm
 
-    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-        raise BadInput(f"batch size is {batch_size!r}; expected a whole number >= 1")
+    require_whole("batch size", batch_size, 1)
     device = next(net.parameters()).device
     if net.training:
         net.eval()

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,8 +101,7 @@ def fit_mixture(x, components: int, reg: float, seed: int = 0, min_count: int = 
     if x.ndim != 2 or not np.all(np.isfinite(x)):
         raise BadInput(f"points have shape {x.shape}; expected finite (N, D)")
     n, d = x.shape
-    if isinstance(components, bool) or not isinstance(components, (int, np.integer)) or components < 1:
-        raise BadInput(f"components is {components!r}; expected a whole number >= 1")
+    require_whole("components", components, 1)
     if not (isinstance(reg, (int, float)) and math.isfinite(reg) and reg > 0):
         raise BadInput(f"reg is {reg!r}; expected a number > 0")
     if n < max(min_count, components):

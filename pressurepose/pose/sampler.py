@@ -94,7 +94,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.partitions import ARM_BINS, LEG_BINS, PARTITIONS, Partition, get_partition
 from pressurepose.pose.posefile import PoseFile
@@ -120,8 +120,8 @@ def check_gender(gender) -> str:
 
 
 def _whole(name: str, v, low: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
-        raise BadInput(f"{name} is {v!r}; expected a whole number >= {low}")
+    """``v`` as an int; BadInput unless it is a whole number >= ``low``."""
+    require_whole(name, v, low)
     return int(v)
 
 
