@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.mat import get_mat
 from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
 from pressurepose.pose.partitions import get_partition
@@ -258,14 +258,11 @@ class GenerationConfig:
         object.__setattr__(self, "gender", check_gender(self.gender))
         object.__setattr__(self, "options", _freeze_options(self.options))
         for name in ("count", "shard_size", "max_attempts"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
-                raise BadInput(f"{name} = {value!r}; expected a positive integer")
+            require_whole(name, getattr(self, name), 1)
         if self.count > MAX_COUNT:
             raise BadInput(f"count = {self.count}; at most {MAX_COUNT} samples per dataset (the paper's whole "
                            f"mix is 206,000): split it into several datasets with different seeds")
-        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
-            raise BadInput(f"seed = {self.seed!r}; expected an integer >= 0")
+        require_whole("seed", self.seed, 0)
         for name in ("limbs_on_bed", "hanging_limbs", "randomize"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise BadInput(f"{name} = {getattr(self, name)!r}; expected true or false")
