@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_non_negative, require_whole
 from pressurepose.mat import MatSpec
 
 GRAVITY = 9.81  # as pressurepose.sim.sensor
@@ -80,8 +80,10 @@ class RegionRule:
         b = np.asarray(self.bounds, dtype=np.float64)
         if b.shape != (len(REGIONS) - 1,) or np.any(np.diff(b) <= 0) or b[0] <= 0 or b[-1] >= 1:
             raise BadInput(f"region bounds {self.bounds!r}: expected {len(REGIONS) - 1} increasing fractions in (0, 1)")
-        if not self.contact_mmhg >= 0 or not 0 < self.top_fraction <= 1 or self.narrow_rows < 1:
-            raise BadInput("contact_mmhg must be >= 0, top_fraction in (0, 1], narrow_rows >= 1")
+        require_non_negative("region contact_mmhg", self.contact_mmhg)
+        if not 0 < self.top_fraction <= 1:
+            raise BadInput(f"region top_fraction is {self.top_fraction!r}; expected a fraction in (0, 1]")
+        require_whole("region narrow_rows", self.narrow_rows, 1)
 
 
 DEFAULT_RULE = RegionRule()
