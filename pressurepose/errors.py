@@ -67,6 +67,13 @@ def require_non_negative(name: str, v) -> None:
         raise BadInput(f"{name} is {v!r}; expected zero or a positive number")
 
 
+def require_between(name: str, v, lo: float, hi: float) -> None:
+    """BadInput unless ``v`` is a real number (not a bool) from ``lo`` to ``hi``, both included (so
+    NaN and, for finite bounds, infinities are refused)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not lo <= v <= hi:
+        raise BadInput(f"{name} is {v!r}; expected a number from {lo} to {hi}")
+
+
 FLOAT32_MAX = float(np.finfo(np.float32).max)  # about 3.4e38: larger values become infinite in float32
 
 

@@ -4,7 +4,7 @@ input, the value given and what was expected."""
 import numpy as np
 import pytest
 
-from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
+from pressurepose.errors import BadInput, require_between, require_non_negative, require_positive, require_whole
 
 
 @pytest.mark.parametrize("v", [1, 0, 5, np.int64(3)])
@@ -38,3 +38,11 @@ def test_positive_and_non_negative(check, good, bad, expected):
     for v in (float("nan"), float("inf"), True, "1", None):
         with pytest.raises(BadInput, match=r"^x is .*; expected a finite number$"):
             check("x", v)
+
+
+def test_require_between_takes_the_closed_interval_and_refuses_the_rest():
+    for v in (1, 1.0, 2.5, 4, np.float32(3.0), np.int64(2)):
+        require_between("f", v, 1, 4)
+    for v in (0.99, 4.01, float("nan"), float("inf"), -float("inf"), True, "2", None):
+        with pytest.raises(BadInput, match=r"^f is .*; expected a number from 1 to 4$"):
+            require_between("f", v, 1, 4)
