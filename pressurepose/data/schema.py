@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from pressurepose.errors import BadInput, require_whole
+from pressurepose.errors import BadInput, require_between, require_whole
 from pressurepose.mat import get_mat
 from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
 from pressurepose.pose.partitions import get_partition
@@ -274,10 +274,8 @@ class GenerationConfig:
         if self.placement not in PLACEMENTS:
             raise BadInput(f"placement = {self.placement!r}; expected one of {', '.join(PLACEMENTS)}")
         for name in ("across_sd_m", "across_sd_lateral_m"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float, np.integer, np.floating)) or isinstance(v, bool) or not 0 <= v <= 0.5:
-                raise BadInput(f"{name} = {v!r}; expected a spread in metres from 0 to 0.5")
-            object.__setattr__(self, name, float(v))
+            require_between(f"{name} (a spread in metres)", getattr(self, name), 0, 0.5)
+            object.__setattr__(self, name, float(getattr(self, name)))
         from pressurepose.sim.settle_config import SETTLES
 
         if self.settle not in SETTLES:

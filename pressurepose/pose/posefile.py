@@ -21,7 +21,6 @@ one, else ``camera`` for the fit layout and ``bed`` for the plain layout.
 from __future__ import annotations
 
 import hashlib
-import math
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
@@ -29,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from pressurepose.body.lbs_numpy import Y_UP_TO_Z_UP, rodrigues, rotation_to_axis_angle
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_between
 from pressurepose.files import load_npz
 from pressurepose.pose.posture import posture_classes
 
@@ -180,10 +179,8 @@ class PoseFile:
     def __post_init__(self):
         if self.frame not in FRAMES:
             raise BadInput(f"pose frame {self.frame!r}; expected one of {', '.join(FRAMES)}")
-        v = self.noise_deg
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= 90:
-            raise BadInput(f"pose noise is {v!r} degrees; expected a number from 0 to 90")
-        object.__setattr__(self, "noise_deg", float(v))
+        require_between("pose noise_deg (degrees)", self.noise_deg, 0, 90)
+        object.__setattr__(self, "noise_deg", float(self.noise_deg))
 
     @classmethod
     def of(cls, path, frame: str = "auto", noise_deg: float = 5.0) -> "PoseFile":

@@ -14,7 +14,7 @@ import numpy as np
 
 from pressurepose.body.contact import START_OVERLAP_TOL_M
 from pressurepose.body.joints import JOINT_NAMES
-from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
+from pressurepose.errors import BadInput, require_between, require_non_negative, require_positive, require_whole
 from pressurepose.sim.springs import LIMIT_STIFFNESS_FACTOR, RELAXED_SPINE_STIFFNESS
 
 # joints of the limbs that must rest over the mattress unless limbs may hang (SamplerConfig.hanging_limbs)
@@ -111,9 +111,7 @@ class SettleConfig:
             raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(CONES)}")
         if self.spine_stiffness is not None:
             require_positive("settle spine_stiffness (N m/rad; None: the paper's)", self.spine_stiffness)
-        c = self.coarse_factor
-        if isinstance(c, bool) or not isinstance(c, (int, float)) or not 1.0 <= c <= 4.0:
-            raise BadInput(f"settle coarse_factor is {c!r}; expected a number from 1 (no coarse step) to 4")
+        require_between("settle coarse_factor (1: no coarse step)", self.coarse_factor, 1, 4)
         for name in ("drop_clearance_m", "self_collision_tol_m"):
             require_non_negative(f"settle {name}", getattr(self, name))
 
