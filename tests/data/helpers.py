@@ -13,15 +13,22 @@ def small_config(**kw) -> GenerationConfig:
     return GenerationConfig(**base)
 
 
+def first_claim(config, name: str) -> bool:
+    """Whether this call is the first across all processes to claim ``name``: it creates the marker
+    file ``name`` in the config's ``marker_dir`` option, and only one creator can succeed."""
+    try:
+        fd = os.open(Path(config.option("marker_dir")) / name, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return False
+    os.close(fd)
+    return True
+
+
 def flaky_producer(config, rng):
     """Raises on the very first call across all processes (claimed by creating a marker file), then
     behaves like the synthetic producer: exactly one work unit fails once."""
-    marker = Path(config.option("marker_dir")) / "failed_once"
-    try:
-        fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-    except FileExistsError:
+    if not first_claim(config, "failed_once"):
         return synthetic_producer(config, rng)
-    os.close(fd)
     raise RuntimeError("injected worker failure")
 
 
@@ -31,12 +38,8 @@ def broken_producer(config, rng):
 
 def crashing_producer(config, rng):
     """Kills its worker process outright on the first call (marker file), like a segfault would."""
-    marker = Path(config.option("marker_dir")) / "crashed_once"
-    try:
-        fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-    except FileExistsError:
+    if not first_claim(config, "crashed_once"):
         return synthetic_producer(config, rng)
-    os.close(fd)
     os._exit(1)
 
 
