@@ -18,6 +18,14 @@ def _tool():
     return mod
 
 
+def _recording_tool(monkeypatch):
+    """The tool, and the list its ``cli`` calls are recorded in instead of being run."""
+    calls = []
+    T = _tool()
+    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    return T, calls
+
+
 def test_scaled_recipe_keeps_the_paper_mix_with_unseen_seeds(tmp_path):
     tool = _tool()
     paper = json.loads(tool.PAPER_RECIPE.read_text())
@@ -73,9 +81,7 @@ def test_a_bed_file_goes_to_every_generate_call(tmp_path, monkeypatch):
     """`--bed FILE` makes the data on that bed; without it the default bed (no --bed)."""
     import sys
 
-    calls = []
-    T = _tool()
-    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    T, calls = _recording_tool(monkeypatch)
     bed = tmp_path / "bed.json"
     bed.write_text("{}")
     for extra in ([], ["--bed", str(bed)]):
@@ -95,9 +101,7 @@ def test_a_settle_goes_to_generate(tmp_path, monkeypatch):
     default); it cannot go with --repress-from, which keeps an earlier run's rests."""
     import sys
 
-    calls = []
-    T = _tool()
-    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    T, calls = _recording_tool(monkeypatch)
     argv = ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01", "--real", str(tmp_path / "x")]
     monkeypatch.setattr(sys, "argv", argv + ["--settle", "paper"])
     assert T.main() == 0
@@ -113,9 +117,7 @@ def test_a_settle_goes_to_generate(tmp_path, monkeypatch):
 def test_repress_from_re_presses_both_splits_and_generates_only_the_wedge_entries(tmp_path, monkeypatch):
     import sys
 
-    calls = []
-    T = _tool()
-    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    T, calls = _recording_tool(monkeypatch)
     bed = tmp_path / "bed.json"
     bed.write_text("{}")
     argv = ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--scale", "0.01", "--real", str(tmp_path / "x"),
@@ -167,9 +169,7 @@ def test_the_tools_defaults_train_as_the_shipped_model_was_trained(tmp_path, mon
 
     from pressurepose.cli.net import add_train_arguments
 
-    calls = []
-    T = _tool()
-    monkeypatch.setattr(T, "cli", lambda *args: calls.append(args))
+    T, calls = _recording_tool(monkeypatch)
     monkeypatch.setattr(sys, "argv", ["train_shipped_model.py", "--work", str(tmp_path / "w"), "--skip-generate",
                                       "--real", str(tmp_path / "none")])
     assert T.main() == 0
