@@ -185,7 +185,7 @@ def main(argv=None) -> int:
         "zero shape with the root orientation removed (left and right averaged; "
         "`pressurepose.pose.fidelity.end_joint_distances`). Drawn bodies: half female, half male; prone "
         "(`prone_hands_up`) has no SLP group. The last rows run the held-out fits themselves through the "
-        "sampler's rules for whole poses (limits clipped, colliding limbs nudged apart, slid across the bed: "
+        "sampler's rules for whole poses (limits clipped, colliding limbs moved apart, slid across the bed: "
         "`pressurepose.pose.whole`): no draw under those rules can come closer.",
         "",
         *table,

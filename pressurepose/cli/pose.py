@@ -34,7 +34,7 @@ def add_body_arguments(p: argparse.ArgumentParser) -> None:
                         "an .npz with global_orient (N x 3) and body_pose (N x 69), as SMPL fits are written, or "
                         "pose (N x 72), as `sample` writes; axis-angle, SMPL's joint order. Each body takes a "
                         "pose of its roll's posture (supine, left or right side, prone: by the pose's root) "
-                        "plus --pose-noise, clipped to the joint limits, nudged apart where limbs collide "
+                        "plus --pose-noise, clipped to the joint limits, moved apart where limbs collide "
                         "(pressurepose.pose.whole); the partition then gives only the roll, so use one without "
                         "limb rules (general, general_supine, general_lateral, propped_lateral, natural_*). "
                         "Use poses you have the rights to train on")
