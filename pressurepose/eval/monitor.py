@@ -410,7 +410,8 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
     dur = frame_durations(t)
     which = np.full(len(t), -1, dtype=np.int64)  # each frame's body: index into the estimated frames
     which[selection.ref >= 0] = np.searchsorted(est, selection.ref[selection.ref >= 0])
-    roll_frame = np.where(which >= 0, roll[np.maximum(which, 0)], np.nan)
+    roll_frame = np.full(len(t), np.nan)  # NaN where nobody is on the mat (every frame, when no body was read)
+    roll_frame[which >= 0] = roll[which[which >= 0]]
     S = len(SITES)
     peak, mean, share = (np.zeros((len(t), S)) for _ in range(3))
     for s in range(0, len(t), _CHUNK):
