@@ -167,6 +167,14 @@ def test_read_frames_keeps_every_frame_in_float32_and_reads_files_as_read_record
     (tmp_path / "nan.txt").write_text("\t".join(["1"] * 2047 + ["nan"]) + "\n")
     with pytest.raises(BadInput, match="nan.txt line 1: reading 2048"):
         read_frames(tmp_path / "nan.txt", FSA.shape)
+    np.save(tmp_path / "neg.npy", -frames)  # the file is named, as for every other bad reading
+    with pytest.raises(BadInput, match=r"recording '.*neg.npy' has negative readings \(min -"):
+        read_frames(tmp_path / "neg.npy", BT.shape)
+    with pytest.raises(BadInput, match=r"^recording '.*neg.npy' has negative readings"):
+        read_recording(tmp_path / "neg.npy", BT, "mmHg")
+    (folder / "frame_3.npy").write_bytes(b"not a frame")
+    with pytest.raises(BadInput, match=r"^frame file '.*frame_3.npy' is not a readable .npy file"):
+        read_frames(folder, BT.shape)
 
 
 def test_a_long_text_recording_is_read_without_copies_of_the_night():

@@ -107,7 +107,7 @@ def read_file_frames(path: str | Path, shape: tuple[int, int], what: str = "reco
     gets a leading axis; other shapes are returned for the caller to refuse with its own hint), a
     ``.csv`` of one frame, or a ``.txt`` of one frame a line or one frame as ``rows`` lines (PhysioNet
     PMD experiments I and II). BadInput naming ``what`` and the file for anything else, and for
-    readings that are not finite numbers."""
+    readings that are not finite numbers or are negative."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in RECORDING_SUFFIXES:
@@ -117,6 +117,9 @@ def read_file_frames(path: str | Path, shape: tuple[int, int], what: str = "reco
     arr = _text_frames(path, shape) if suffix == ".txt" else read_array_file(path, what)
     if not (arr.dtype == np.float32 and np.isfinite(arr.sum(dtype=np.float64))):  # else no copy
         arr = finite_float32(arr, f"{what} {str(path)!r}")
+    if arr.size and arr.min() < 0:
+        raise BadInput(f"{what} {str(path)!r} has negative readings (min {arr.min():.3g}); a pressure mat's "
+                       f"readings are >= 0")
     return arr[None] if arr.ndim == 2 else arr
 
 
@@ -217,7 +220,7 @@ def read_frames(source, shape: tuple[int, int]) -> np.ndarray:
             raise BadInput(f"recording folder {str(path)!r} holds no frame files ({', '.join(FRAME_SUFFIXES)})")
         frames = []
         for f in files:
-            img = read_file_frames(f, shape, "frame file")
+            img = read_file_frames(f, shape, "frame")
             if img.shape != (1, *shape):
                 raise BadInput(f"frame file {str(f)!r} has shape {img.shape[1:] if len(img) == 1 else img.shape}; "
                                f"expected one {shape[0]} x {shape[1]} frame")
