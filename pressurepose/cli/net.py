@@ -226,6 +226,9 @@ def run_infer(args) -> int:
         if given:
             raise BadInput(f"{', '.join(given)} describe a recording on its own mat: give --mat too (a preset or a "
                            f"mat.json); without --mat the images are mmHg on the model's mat")
+        if str(args.pressure_file).lower().endswith(".txt"):
+            raise BadInput(f"{args.pressure_file}: a text recording is read on its own mat: give --mat (a preset or a "
+                           f"mat.json) and --units (raw, with --weight-kg or --gain, or mmHg)")
         source = load_pressure(args.pressure_file, key=args.key)
         recording = {}
     else:
