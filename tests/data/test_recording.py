@@ -90,7 +90,8 @@ def test_raw_readings_become_the_body_weight_or_the_gain():
 
 def test_bad_recordings_say_what_is_wrong(tmp_path):
     img = body_image(64, 27)
-    with pytest.raises(BadInput, match="weight .* or a calibration gain"):
+    with pytest.raises(BadInput, match=r"weight in kg \(--weight-kg.* or your mat.s calibration gain in mmHg per "
+                                       r"raw unit \(--gain"):
         read_recording(img, BT, "raw")
     with pytest.raises(BadInput, match="not both"):
         read_recording(img, BT, "raw", weight_kg=70, gain=0.1)

@@ -265,7 +265,7 @@ def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_
     assert sorted(p.name for p in out.glob("*.png")) == ["estimate_000.png", "estimate_001.png", "sites_000.png",
                                                          "sites_001.png"]
     # without a weight or a gain, with --units but no --mat, or --mat without --units: a clear error
-    for extra, said in ((["--mat", "boditrak_bt3510", "--units", "raw"], "weight (kg) or a calibration gain"),
+    for extra, said in ((["--mat", "boditrak_bt3510", "--units", "raw"], "weight in kg (--weight-kg"),
                         (["--units", "raw", "--weight-kg", "70"], "give --mat too"),
                         (["--mat", "boditrak_bt3510"], "--mat needs --units")):
         assert main(["infer", str(tmp_path / "rec.npy"), "--gender", "m", "--model", str(model_path),

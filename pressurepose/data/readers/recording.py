@@ -168,9 +168,10 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
     if units == "raw" and weight_kg is None and gain is None:
         gain = gain_of_record(record, mat)
         if gain is None:
-            raise BadInput("raw readings need the person's weight (kg) or a calibration gain (mmHg per raw unit) to "
-                           "become mmHg, the unit the model reads: the weight sets each frame's total load "
-                           "(sum of p x taxel area) to the body's m g, as the body rests on the mat")
+            raise BadInput("raw readings need the person's weight in kg (--weight-kg, weight_kg in Python) or your "
+                           "mat's calibration gain in mmHg per raw unit (--gain, gain) to become mmHg, the unit the "
+                           "model reads: the weight sets each frame's total load (sum of p x taxel area) to the "
+                           "body's m g")
     frames, index, name = _frames(source, spec.shape)
     if frames.ndim != 3 or frames.shape[1:] != spec.shape or len(frames) == 0:
         hint = (" (rows and columns swapped? row 0 runs across the bed at the head or the feet)"
