@@ -105,6 +105,9 @@ def test_bad_recordings_say_what_is_wrong(tmp_path):
         read_recording(img, "xsensor", "mmHg")
     with pytest.raises(BadInput, match=r"rows and columns swapped"):
         read_recording(img.T, BT, "mmHg")
+    np.save(tmp_path / "one.npy", img)  # one frame of another mat: its own shape, not (1, 64, 27)
+    with pytest.raises(BadInput, match=r"one.npy has frames of 64 x 27; the fsa_softflex_2048 mat is 64 x 32"):
+        read_recording(tmp_path / "one.npy", FSA, "mmHg")
     with pytest.raises(BadInput, match="finite and >= 0"):
         read_recording(-img, BT, "mmHg")
     with pytest.raises(BadInput, match=r"values up to 1e\+39, out of range: too large for float32"):

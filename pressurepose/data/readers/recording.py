@@ -176,7 +176,9 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
     if frames.ndim != 3 or frames.shape[1:] != spec.shape or len(frames) == 0:
         hint = (" (rows and columns swapped? row 0 runs across the bed at the head or the feet)"
                 if frames.ndim == 3 and frames.shape[1:] == spec.shape[::-1] else "")
-        raise BadInput(f"{name} has shape {frames.shape}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
+        got = (f"has frames of {frames.shape[1]} x {frames.shape[2]}" if frames.ndim == 3 and len(frames)
+               else f"has shape {frames.shape}")  # one frame: its own shape, not the (1, R, C) it was read as
+        raise BadInput(f"{name} {got}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
                        f"({spec.rows}, {spec.cols}) or (F, {spec.rows}, {spec.cols}){hint}")
     frames = finite_float32(frames, name)
     if np.any(frames < 0):
