@@ -20,6 +20,15 @@ def test_every_verb_has_help(verb, capsys):
     assert len(capsys.readouterr().out) > 200
 
 
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_help_speaks_to_users_not_to_the_test_suite_or_the_source(verb, capsys):
+    with pytest.raises(SystemExit):
+        main([verb, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "'toy'" not in text  # the tests' tiny body model is no choice for a user
+    assert ".py)" not in text and ".py;" not in text  # docs/, not the package's source files
+
+
 def test_unknown_verb_is_an_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fly"])

@@ -228,8 +228,8 @@ def add_convert_arguments(p: argparse.ArgumentParser) -> None:
         "participant folder with participant_info_red.p (becomes OUT/<participant>.h5: pressure images, "
         "body facts, point clouds). With --to-pressurepose, SRC is a pressurepose dataset (BodiTrak 64 x 27) "
         "and OUT a .p file in the release format. Pickles are read with an unpickler that only builds "
-        "arrays. Images are mirrored and coordinates rotated into pressurepose's bed frame (z up, y toward the feet; see "
-        "pressurepose/data/readers/pressurepose_pickle.py).")
+        "arrays. Images are mirrored and coordinates rotated into pressurepose's bed frame (z up, y toward the feet; "
+        "docs/data.md).")
     p.add_argument("src", help="release file or folder, or (with --to-pressurepose) a dataset directory")
     p.add_argument("--out", required=True, help="output directory (or .p file with --to-pressurepose)")
     p.add_argument("--to-pressurepose", action="store_true", help="export a pressurepose dataset to the release format")

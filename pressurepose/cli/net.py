@@ -173,7 +173,7 @@ def add_fit_argument(p: argparse.ArgumentParser) -> None:
 def add_body_arguments(p: argparse.ArgumentParser) -> None:
     """--female/--male for verbs that load a trained model."""
     p.add_argument("--female", default=None, help="female body model the model was trained with, if not where the "
-                                                  "model says ('female', 'toy' or an SMPL-format file)")
+                                                  "model says: 'female' (shipped) or an SMPL-format file")
     p.add_argument("--male", default=None, help="male body model, likewise")
 
 
