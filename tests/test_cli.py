@@ -29,6 +29,26 @@ def test_help_speaks_to_users_not_to_the_test_suite_or_the_source(verb, capsys):
     assert ".py)" not in text and ".py;" not in text  # docs/, not the package's source files
 
 
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_every_option_says_what_it_does_and_its_default(verb):
+    import argparse
+    import importlib
+    import re
+
+    module, stem, _ = VERBS[verb]
+    p = argparse.ArgumentParser()
+    getattr(importlib.import_module(module), f"add_{stem}_arguments")(p)
+    for a in p._actions:
+        if isinstance(a, argparse._HelpAction):
+            continue
+        text = a.help or ""
+        what = re.sub(r"\(default[^)]*\)|\[[^\]]*\]|^default.*", "", text).split()
+        assert len(what) >= 2, f"{verb} {a.option_strings or a.dest}: {text!r} does not say what it does"
+        if a.default not in (None, False, []) and not a.required:
+            assert "default" in text or "[" in text or str(a.default) in text, \
+                f"{verb} {a.option_strings}: {text!r} does not give its default {a.default!r}"
+
+
 def test_unknown_verb_is_an_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fly"])

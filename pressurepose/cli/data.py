@@ -77,7 +77,7 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--recipe", help="make a whole mix instead: 'paper' (the paper's 206K samples, appendix "
                                     "A.7) or a recipe JSON file; each entry goes to OUT/<entry name>")
     g.add_argument("--scale", type=float, default=1.0,
-                   help="with --recipe: multiply every count by this (e.g. 0.01 for a quick small mix)")
+                   help="with --recipe: multiply every count by this (default 1; e.g. 0.01 for a quick small mix)")
     g.add_argument("--mat", default=None, help="mat preset: boditrak_bt3510 (64 x 27, default), slp (192 x 84), "
                                                "tip (56 x 40) or fsa_softflex_2048 (64 x 32)")
     g.add_argument("--bed", default=None, metavar="JSON",
