@@ -145,15 +145,21 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def most_loaded(est, i: int) -> str:
-    """'; most loaded: sacrum (44 %, peak 47 mmHg)' for image i of an estimate with site loads."""
-    from pressurepose.body.sites import SITES
+    """'; most loaded: sacrum (44 %, peak 47 mmHg)' for image i of an estimate with site loads; when
+    the rest of the body (no named site) carries the most, the named site loaded most follows."""
+    from pressurepose.body.sites import OTHER, SITES, site_label
 
-    top = est.sites.most_loaded()[i] if est.sites is not None else ""
-    if not top:
+    if est.sites is None or not est.sites.most_loaded()[i]:
         return ""
-    k = SITES.index(top)
-    return (f"; most loaded: {top.replace('_', ' ')} ({100 * est.sites.share[i, k]:.0f} %, peak "
-            f"{est.sites.peak_mmhg[i, k]:.0f} mmHg)")
+
+    def said(site: str) -> str:
+        k = SITES.index(site)
+        return (f"{site_label(site)} ({100 * est.sites.share[i, k]:.0f} %, peak "
+                f"{est.sites.peak_mmhg[i, k]:.0f} mmHg)")
+
+    top, named = est.sites.most_loaded()[i], est.sites.most_loaded(named=True)[i]
+    text = f"; most loaded: {said(top)}"
+    return text + (f"; of the named sites: {said(named)}" if top == SITES[OTHER] and named else "")
 
 
 def add_mirror_argument(p: argparse.ArgumentParser) -> None:
