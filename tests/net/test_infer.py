@@ -259,6 +259,7 @@ def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_
                  "70", "--gender", "m", "--model", str(model_path), "--out", str(out), "--max-figures", "2"]) == 0
     printed = capsys.readouterr().out
     assert "7 estimate(s)" in printed and f"... and 2 more (all in {out / 'estimate.json'})" in printed
+    assert f"frames 0-6 of {tmp_path / 'rec.npy'} (counted from 0), on the boditrak_bt3510 mat" in printed
     saved = json.loads((out / "estimate.json").read_text())["estimates"]
     assert [r["frame"] for r in saved] == list(range(7))
     np.testing.assert_allclose([r["joints"] for r in saved], est.joints, atol=1e-5)
