@@ -100,7 +100,7 @@ def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s
         k = int(np.argmax(step))
         raise BadInput(f"the recording has a gap of {step[k]:.0f} s between frames {k} and {k + 1} (at {t[k]:.0f} s), "
                        f"longer than {max_gap_s:g} s: the time in it is not recorded. Split the recording there, "
-                       f"or allow longer gaps (max_gap_s)")
+                       f"or allow longer gaps (max_gap_s; --max-gap-s)")
     return t
 
 
