@@ -20,6 +20,53 @@ def test_every_verb_has_help(verb, capsys):
     assert len(capsys.readouterr().out) > 200
 
 
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_help_speaks_to_users_not_to_the_test_suite_or_the_source(verb, capsys):
+    with pytest.raises(SystemExit):
+        main([verb, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "'toy'" not in text  # the tests' tiny body model is no choice for a user
+    assert ".py)" not in text and ".py;" not in text  # docs/, not the package's source files
+
+
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_every_option_says_what_it_does_and_its_default(verb):
+    import argparse
+    import importlib
+    import re
+
+    module, stem, _ = VERBS[verb]
+    p = argparse.ArgumentParser()
+    getattr(importlib.import_module(module), f"add_{stem}_arguments")(p)
+    for a in p._actions:
+        if isinstance(a, argparse._HelpAction):
+            continue
+        text = a.help or ""
+        what = re.sub(r"\(default[^)]*\)|\[[^\]]*\]|^default.*", "", text).split()
+        assert len(what) >= 2, f"{verb} {a.option_strings or a.dest}: {text!r} does not say what it does"
+        if a.default not in (None, False, []) and not a.required:
+            assert "default" in text or "[" in text or str(a.default) in text, \
+                f"{verb} {a.option_strings}: {text!r} does not give its default {a.default!r}"
+
+
+def test_an_estimate_loaded_most_off_the_named_sites_also_names_the_site_loaded_most():
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from pressurepose.body.sites import OTHER, SITES, SiteLoads, site_index
+    from pressurepose.cli.net import most_loaded
+
+    share, peak = np.zeros((1, len(SITES))), np.zeros((1, len(SITES)))
+    share[0, OTHER], peak[0, OTHER] = 0.6, 50.0
+    share[0, site_index("sacrum")], peak[0, site_index("sacrum")] = 0.4, 47.0
+    loads = SiteLoads(peak_mmhg=peak, mean_mmhg=peak, area_cm2=share, share=share,
+                      taxel_site=np.zeros((1, 2, 2), np.int8))
+    said = most_loaded(SimpleNamespace(sites=loads), 0)
+    assert said == ("; most loaded: rest of the body (60 %, peak 50 mmHg); of the named sites: sacrum (40 %, "
+                    "peak 47 mmHg)")
+
+
 def test_unknown_verb_is_an_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fly"])

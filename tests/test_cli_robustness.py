@@ -45,6 +45,7 @@ def world(tmp_path_factory):
     np.save(root / "beyond_float32.npy", np.full((64, 27), 1e39))
     np.save(root / "slp.npy", np.ones((192, 84), np.float32))
     (root / "text.npy").write_text("1 2 3\n")
+    (root / "night.txt").write_text(("\t".join(["1"] * 2048) + "\n") * 2)
     (root / "empty.npy").write_bytes(b"")
     (root / "afile").write_text("not a folder\n")
     with h5py.File(root / "dangling.h5", "w") as f:
@@ -119,6 +120,19 @@ REFUSED = [
                                    "--out", w.root / "e4"], "empty"),
     ("infer-hdf5-dangling-link", lambda w: ["infer", w.root / "dangling.h5", "--gender", "f", "--model", w.model,
                                             "--out", w.root / "e6"], "'pressure' is a soft link to '/nowhere'"),
+    ("monitor-negative-threshold", lambda w: ["monitor", w.root / "good.npy", "--mat", "boditrak_bt3510", "--units",
+                                              "mmHg", "--gender", "f", "--fps", 1, "--threshold-mmhg", -1,
+                                              "--model", w.model, "--out", w.root / "m1"],
+     "--threshold-mmhg is -1.0; expected a positive number"),
+    ("monitor-negative-relief", lambda w: ["monitor", w.root / "good.npy", "--mat", "boditrak_bt3510", "--units",
+                                           "mmHg", "--gender", "f", "--fps", 1, "--relief-s", -5,
+                                           "--model", w.model, "--out", w.root / "m2"], "--relief-s is -5.0"),
+    ("monitor-gap", lambda w: ["monitor", w.root / "good.npy", "--mat", "boditrak_bt3510", "--units", "mmHg",
+                               "--gender", "f", "--fps", 0.001, "--model", w.model, "--out", w.root / "m3"],
+     "allow longer gaps (max_gap_s; --max-gap-s)"),
+    ("infer-text-recording-without-mat", lambda w: ["infer", w.root / "night.txt", "--gender", "f", "--model",
+                                                    w.model, "--out", w.root / "e8"],
+     "night.txt: a text recording is read on its own mat: give --mat"),
     ("infer-text-npy", lambda w: ["infer", w.root / "text.npy", "--gender", "f", "--model", w.model,
                                   "--out", w.root / "e5"], "no .npy / .npz header"),
     ("sample-negative-seed", lambda w: ["sample", "--partition", "general", "--gender", "f", "--count", 1,

@@ -67,6 +67,11 @@ LATERAL_SITES: tuple[str, ...] = ("head", "left_shoulder", "right_shoulder", "le
 SITE_RULE_HEIGHT_M = 1.65  # the site rules' lengths are for a body this tall; other heights scale them
 
 
+def site_label(name: str) -> str:
+    """A site's name for people: 'left_heel' -> 'left heel', 'other' -> 'rest of the body'."""
+    return "rest of the body" if name == "other" else name.replace("_", " ")
+
+
 def site_index(name: str) -> int:
     """Index into :data:`SITES` of a site name; BadInput naming the known ones."""
     try:
@@ -375,9 +380,12 @@ class SiteLoads:
     def __len__(self) -> int:
         return int(self.share.shape[0])
 
-    def most_loaded(self) -> list[str]:
-        """The site carrying the largest share of each image ('' for an empty image)."""
-        return [SITES[int(np.argmax(s))] if s.max() > 0 else "" for s in self.share]
+    def most_loaded(self, named: bool = False) -> list[str]:
+        """The site carrying the largest share of each image ('' for an empty image); with ``named``
+        the named body site carrying the most, 'other' (the rest of the body) left out ('' when only
+        'other' carries load)."""
+        share = np.where(np.arange(len(SITES)) == OTHER, 0.0, self.share) if named else self.share
+        return [SITES[int(np.argmax(s))] if s.max() > 0 else "" for s in share]
 
     def to_records(self) -> list[dict]:
         """One JSON-ready dict per image: {site: {peak_mmhg, mean_mmhg, area_cm2, share}} for every site."""

@@ -77,7 +77,7 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--recipe", help="make a whole mix instead: 'paper' (the paper's 206K samples, appendix "
                                     "A.7) or a recipe JSON file; each entry goes to OUT/<entry name>")
     g.add_argument("--scale", type=float, default=1.0,
-                   help="with --recipe: multiply every count by this (e.g. 0.01 for a quick small mix)")
+                   help="with --recipe: multiply every count by this (default 1; e.g. 0.01 for a quick small mix)")
     g.add_argument("--mat", default=None, help="mat preset: boditrak_bt3510 (64 x 27, default), slp (192 x 84), "
                                                "tip (56 x 40) or fsa_softflex_2048 (64 x 32)")
     g.add_argument("--bed", default=None, metavar="JSON",
@@ -228,8 +228,8 @@ def add_convert_arguments(p: argparse.ArgumentParser) -> None:
         "participant folder with participant_info_red.p (becomes OUT/<participant>.h5: pressure images, "
         "body facts, point clouds). With --to-pressurepose, SRC is a pressurepose dataset (BodiTrak 64 x 27) "
         "and OUT a .p file in the release format. Pickles are read with an unpickler that only builds "
-        "arrays. Images are mirrored and coordinates rotated into pressurepose's bed frame (z up, y toward the feet; see "
-        "pressurepose/data/readers/pressurepose_pickle.py).")
+        "arrays. Images are mirrored and coordinates rotated into pressurepose's bed frame (z up, y toward the feet; "
+        "docs/data.md).")
     p.add_argument("src", help="release file or folder, or (with --to-pressurepose) a dataset directory")
     p.add_argument("--out", required=True, help="output directory (or .p file with --to-pressurepose)")
     p.add_argument("--to-pressurepose", action="store_true", help="export a pressurepose dataset to the release format")

@@ -94,7 +94,7 @@ def _figure(body, bed, image, true_v, true_j, est):
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import below_extent, draw_mesh
+    from pressurepose.viz.mesh import below_extent, draw_mesh, label_along_bed
 
     mat = bed.mat
     w, h = mat.cols * mat.pitch_col_m, mat.rows * mat.pitch_row_m
@@ -129,6 +129,8 @@ def _figure(body, bed, image, true_v, true_j, est):
         ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
         ax.set_xlabel("x across the bed (m)")
-    axes[0].set_ylabel("-y along the bed (m)")
+        label_along_bed(ax)
+    for ax in axes[1:]:
+        ax.set_ylabel("")  # one label for the row
     fig.tight_layout(w_pad=3.0)
     return fig

@@ -26,6 +26,14 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     add_body_arguments(p)
 
 
+EVALUATE_LEGEND = (
+    "Per group: PressureNet (Mod1 + Mod2) beside the mean-pose baseline (BL); MPJPE: mean distance of the 24 "
+    "joints; v2v: mean vertex-to-vertex distance; posture acc.: share of bodies read in the right posture "
+    "(supine, left, right, prone); stature bias: estimated less true standing height; roll MAE: mean error of the "
+    "body's roll, its turn about its long axis (0 on the back, +-90 deg on a side); turn bias: |estimated roll| less |true roll|, negative "
+    "where a turned body is read flatter than it lies.")
+
+
 def run_evaluate(args) -> int:
     from pressurepose.cli.net import body_specs
     from pressurepose.errors import BadInput
@@ -52,12 +60,14 @@ def run_evaluate(args) -> int:
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
     result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
-    table = format_table(result["summary"])
+    table = format_table(result["summary"]) + "\n\n" + EVALUATE_LEGEND
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+        reading = ", ".join(["the network"] + ["mirror-averaged (--mirror)"] * bool(args.mirror)
+                            + ["Mod2's bodies fitted to their prints (--fit)"] * bool(args.fit))
         write_text_atomic(out / "report.md", f"# PressureNet evaluation\n\nmodel: {args.model or 'shipped'}\ndata: {args.data} "
-                                             f"({len(data)} samples)\n\n{table}\n")
+                                             f"({len(data)} samples)\nreading: {reading}\n\n{table}\n")
         write_json_atomic(out / "report.json", {"model": str(args.model or "shipped"), "data": str(args.data),
                                                 "mirror": bool(args.mirror),
                                                 "fit": bool(args.fit), "summary": result["summary"]})

@@ -115,6 +115,12 @@ def run_monitor(args) -> int:
         raise BadInput("the recording's timing is needed: give --fps (frames per second) or --timestamps FILE")
     if args.batch_size < 1:
         raise BadInput(f"--batch-size is {args.batch_size}; expected 1 or more")
+    from pressurepose.errors import require_non_negative, require_positive
+
+    for flag in ("--threshold-mmhg", "--reposition-h", "--max-gap-s"):  # named as the user typed them
+        require_positive(flag, getattr(args, flag[2:].replace("-", "_")))
+    for flag in ("--relief-s", "--change", "--min-posture-s"):
+        require_non_negative(flag, getattr(args, flag[2:].replace("-", "_")))
     config = MonitorConfig(threshold_mmhg=args.threshold_mmhg, reposition_s=args.reposition_h * 3600.0,
                            relief_s=args.relief_s, change=args.change, min_posture_s=args.min_posture_s,
                            max_gap_s=args.max_gap_s)

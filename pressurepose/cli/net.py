@@ -20,12 +20,12 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="run folder: log.csv, tb/, state.*, model.safetensors + model.json")
     p.add_argument("--epochs-mod1", type=int, default=d.epochs_mod1, help=f"epochs for Mod1 (default {d.epochs_mod1})")
     p.add_argument("--epochs-mod2", type=int, default=d.epochs_mod2, help=f"epochs for Mod2 (default {d.epochs_mod2})")
-    p.add_argument("--batch-size", type=int, default=d.batch_size, help=f"default {d.batch_size}")
+    p.add_argument("--batch-size", type=int, default=d.batch_size, help=f"images per training step (default {d.batch_size})")
     p.add_argument("--lr", type=float, default=d.lr, help=f"Adam learning rate (default {d.lr})")
     p.add_argument("--lr-mod2", type=float, default=None, help="Mod2's learning rate (default: --lr)")
     p.add_argument("--lr-schedule", choices=("constant", "cosine"), default=d.lr_schedule,
                    help="constant (the paper) or cosine: each stage's rate falls to 0 over its epochs")
-    p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"default {d.weight_decay}")
+    p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"Adam's L2 weight decay (default {d.weight_decay:g})")
     p.add_argument("--no-noise", action="store_true", help="train without the noise model (one of the paper's ablations, table 2)")
     p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (the paper's PMR ablation)")
     p.add_argument("--no-edges-contact", action="store_true", help="drop the Sobel and contact channels (the paper's input ablation)")
@@ -33,7 +33,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loss-sigmas", choices=("paper", "data"), default=d.loss_sigmas,
                    help="sigma_s and sigma_beta: the paper's values or from the training set (default paper)")
     p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05)")
-    p.add_argument("--seed", type=seed_arg, default=d.seed, help="seed of the split, shuffling, noise, dropout and init")
+    p.add_argument("--seed", type=seed_arg, default=d.seed, help=f"seed of the split, shuffling, noise, dropout and init (default {d.seed})")
     p.add_argument("--device", default=d.device, help="auto (CUDA if available), cpu, cuda, cuda:1 ...")
     p.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
     p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU (~1.6x faster "
@@ -51,7 +51,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
                    help="weight of a loss on the body's turn about its long axis (the hips' and shoulders' "
                         "left-right axes, apart from the joint distances; not in the paper) [0]")
     p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
-    p.add_argument("--limit", type=int, default=None, help="use only the first N samples")
+    p.add_argument("--limit", type=int, default=None, help="use only the first N samples (default: all)")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
     p.add_argument("--male", default="male", help="male body model: 'male' (shipped) or an SMPL-format file")
 
@@ -145,15 +145,21 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def most_loaded(est, i: int) -> str:
-    """'; most loaded: sacrum (44 %, peak 47 mmHg)' for image i of an estimate with site loads."""
-    from pressurepose.body.sites import SITES
+    """'; most loaded: sacrum (44 %, peak 47 mmHg)' for image i of an estimate with site loads; when
+    the rest of the body (no named site) carries the most, the named site loaded most follows."""
+    from pressurepose.body.sites import OTHER, SITES, site_label
 
-    top = est.sites.most_loaded()[i] if est.sites is not None else ""
-    if not top:
+    if est.sites is None or not est.sites.most_loaded()[i]:
         return ""
-    k = SITES.index(top)
-    return (f"; most loaded: {top.replace('_', ' ')} ({100 * est.sites.share[i, k]:.0f} %, peak "
-            f"{est.sites.peak_mmhg[i, k]:.0f} mmHg)")
+
+    def said(site: str) -> str:
+        k = SITES.index(site)
+        return (f"{site_label(site)} ({100 * est.sites.share[i, k]:.0f} %, peak "
+                f"{est.sites.peak_mmhg[i, k]:.0f} mmHg)")
+
+    top, named = est.sites.most_loaded()[i], est.sites.most_loaded(named=True)[i]
+    text = f"; most loaded: {said(top)}"
+    return text + (f"; of the named sites: {said(named)}" if top == SITES[OTHER] and named else "")
 
 
 def add_mirror_argument(p: argparse.ArgumentParser) -> None:
@@ -173,7 +179,7 @@ def add_fit_argument(p: argparse.ArgumentParser) -> None:
 def add_body_arguments(p: argparse.ArgumentParser) -> None:
     """--female/--male for verbs that load a trained model."""
     p.add_argument("--female", default=None, help="female body model the model was trained with, if not where the "
-                                                  "model says ('female', 'toy' or an SMPL-format file)")
+                                                  "model says: 'female' (shipped) or an SMPL-format file")
     p.add_argument("--male", default=None, help="male body model, likewise")
 
 
@@ -226,6 +232,9 @@ def run_infer(args) -> int:
         if given:
             raise BadInput(f"{', '.join(given)} describe a recording on its own mat: give --mat too (a preset or a "
                            f"mat.json); without --mat the images are mmHg on the model's mat")
+        if str(args.pressure_file).lower().endswith(".txt"):
+            raise BadInput(f"{args.pressure_file}: a text recording is read on its own mat: give --mat (a preset or a "
+                           f"mat.json) and --units (raw, with --weight-kg or --gain, or mmHg)")
         source = load_pressure(args.pressure_file, key=args.key)
         recording = {}
     else:
@@ -256,7 +265,8 @@ def run_infer(args) -> int:
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else " (the others blank or start-up frames)"
-        print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file}{left_out}, on the {args.mat} mat, "
+        print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file} (counted from 0){left_out}, on the "
+              f"{args.mat} mat, "
               f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
     import numpy as np
 

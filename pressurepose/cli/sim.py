@@ -167,16 +167,16 @@ def _draw_wedge_side(ax, wedge) -> None:
 
 
 def _plot_simulated(body, bed, done):
-    """One row per body: its pressure image on the mat (x across the bed, -y along it, metres, as in
-    the ``demo`` picture; one colour scale for all rows, its mmHg bar on top) and the body at rest seen
-    from the side."""
+    """One row per body: its pressure image on the mat (x across the bed and the distance from the
+    head end, metres, as in the ``demo`` picture; one colour scale for all rows, its mmHg bar on top)
+    and the body at rest seen from the side."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from pressurepose.sim.wedge import Wedge
-    from pressurepose.viz.mesh import draw_mesh
+    from pressurepose.viz.mesh import draw_mesh, label_along_bed
 
     mat = bed.mat
     extent = [0, mat.cols * mat.pitch_col_m, -mat.rows * mat.pitch_row_m, 0]  # row 0 (head end) at -y = 0
@@ -192,7 +192,7 @@ def _plot_simulated(body, bed, done):
         im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax)
         a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
         a_img.set_xlabel("x across the bed (m)")
-        a_img.set_ylabel("-y along the bed (m)")
+        label_along_bed(a_img)
         draw_mesh(a_side, v, body.faces, "bed_side")
         wedge = Wedge.from_array(s["wedge"])
         if wedge is not None:

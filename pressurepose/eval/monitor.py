@@ -100,7 +100,7 @@ def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s
         k = int(np.argmax(step))
         raise BadInput(f"the recording has a gap of {step[k]:.0f} s between frames {k} and {k + 1} (at {t[k]:.0f} s), "
                        f"longer than {max_gap_s:g} s: the time in it is not recorded. Split the recording there, "
-                       f"or allow longer gaps (max_gap_s)")
+                       f"or allow longer gaps (max_gap_s; --max-gap-s)")
     return t
 
 
@@ -410,7 +410,8 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
     dur = frame_durations(t)
     which = np.full(len(t), -1, dtype=np.int64)  # each frame's body: index into the estimated frames
     which[selection.ref >= 0] = np.searchsorted(est, selection.ref[selection.ref >= 0])
-    roll_frame = np.where(which >= 0, roll[np.maximum(which, 0)], np.nan)
+    roll_frame = np.full(len(t), np.nan)  # NaN where nobody is on the mat (every frame, when no body was read)
+    roll_frame[which >= 0] = roll[which[which >= 0]]
     S = len(SITES)
     peak, mean, share = (np.zeros((len(t), S)) for _ in range(3))
     for s in range(0, len(t), _CHUNK):

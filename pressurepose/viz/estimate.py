@@ -22,7 +22,7 @@ def estimate_figure(est: Estimate, i: int = 0):
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import draw_mesh
+    from pressurepose.viz.mesh import draw_mesh, label_along_bed
 
     fig, axes = plt.subplots(1, 3, figsize=(12, 6.4))
     for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
@@ -41,7 +41,7 @@ def estimate_figure(est: Estimate, i: int = 0):
     ax.legend(loc="lower right", fontsize=7)
     ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
     ax.set_xlabel("x across the bed (m)")
-    ax.set_ylabel("-y along the bed (m)")
+    label_along_bed(ax)
     fig.text(0.01, 0.01, CAPTION, fontsize=8, va="bottom", wrap=True)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig

@@ -21,6 +21,16 @@ VIEWS: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {
 }
 
 
+def label_along_bed(ax) -> None:
+    """Label the vertical axis of a picture drawn from above or below the mat, where the plotted
+    value is -y (the head end at 0 at the top, the feet below): ticks read the distance from the
+    head end in metres, positive toward the feet, as a person measures it on the bed."""
+    from matplotlib.ticker import FuncFormatter
+
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{-v + 0.0:.2f}"))
+    ax.set_ylabel("from the head end (m)")
+
+
 def view_axes(view: str):
     from pressurepose.errors import BadInput
 

@@ -7,16 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.body.sites import SITES
+from pressurepose.body.sites import OTHER, SITES, site_label
 from pressurepose.net.infer import Estimate
 from pressurepose.viz.estimate import save_numbered_figures
 
 THRESHOLD_MMHG = 32.0  # capillary closing pressure (Landis 1930), as pressurepose.eval.monitor
-
-
-def site_label(name: str) -> str:
-    """'left_heel' -> 'left heel'."""
-    return name.replace("_", " ")
 
 
 def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMHG):
@@ -88,7 +83,11 @@ def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMH
     ax.set_xlabel("peak pressure (mmHg); red: above the threshold")
     ax.set_title("load per body site")
     name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-    fig.suptitle(f"{name}: most loaded {site_label(loads.most_loaded()[i]) or '-'}")
+    top, named = loads.most_loaded()[i], loads.most_loaded(named=True)[i]
+    title = f"{name}: most loaded: {site_label(top) or '-'}"
+    if top == SITES[OTHER] and named:  # 'the rest of the body' names no site: the named site loaded most too
+        title += f"; of the named sites: {site_label(named)}"
+    fig.suptitle(title)
     fig.tight_layout()
     return fig
 

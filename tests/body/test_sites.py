@@ -15,6 +15,7 @@ from pressurepose.body.sites import (
     fit_offset,
     lowest_vertices,
     site_index,
+    site_label,
     site_loads,
     site_stats,
     taxel_sites,
@@ -104,6 +105,20 @@ def test_min_mmhg_leaves_noise_out_and_empty_images_have_no_shares():
     loads = site_loads(pressure, np.stack([v, v]), f, np.full(len(v), k), MAT, min_mmhg=1.0)
     assert loads.area_cm2[0, k] == pytest.approx(4.0) and loads.share[0, k] == 1.0
     assert loads.share[1].sum() == 0.0 and loads.most_loaded() == ["scapulae", ""]
+
+
+def test_the_rest_of_the_body_is_no_site_a_nurse_can_turn_so_the_named_site_loaded_most_is_given():
+    pressure = np.zeros((2, 4, 5))
+    pressure[0, 0, :] = 40.0  # image 0: 'other' carries 5 taxels, the sacrum 2
+    pressure[0, 3, :2] = 40.0
+    pressure[1, 0, :] = 40.0  # image 1: only 'other'
+    taxel = np.full((2, 4, 5), NO_SITE, np.int8)
+    taxel[:, 0, :] = OTHER
+    taxel[0, 3, :2] = site_index("sacrum")
+    loads = site_stats(pressure, taxel, MAT)
+    assert loads.most_loaded() == ["other", "other"]
+    assert loads.most_loaded(named=True) == ["sacrum", ""]
+    assert site_label("other") == "rest of the body" and site_label("left_heel") == "left heel"
 
 
 def test_site_stats_refuse_malformed_input():

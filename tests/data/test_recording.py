@@ -90,7 +90,8 @@ def test_raw_readings_become_the_body_weight_or_the_gain():
 
 def test_bad_recordings_say_what_is_wrong(tmp_path):
     img = body_image(64, 27)
-    with pytest.raises(BadInput, match="weight .* or a calibration gain"):
+    with pytest.raises(BadInput, match=r"weight in kg \(--weight-kg.* or your mat.s calibration gain in mmHg per "
+                                       r"raw unit \(--gain"):
         read_recording(img, BT, "raw")
     with pytest.raises(BadInput, match="not both"):
         read_recording(img, BT, "raw", weight_kg=70, gain=0.1)
@@ -104,6 +105,9 @@ def test_bad_recordings_say_what_is_wrong(tmp_path):
         read_recording(img, "xsensor", "mmHg")
     with pytest.raises(BadInput, match=r"rows and columns swapped"):
         read_recording(img.T, BT, "mmHg")
+    np.save(tmp_path / "one.npy", img)  # one frame of another mat: its own shape, not (1, 64, 27)
+    with pytest.raises(BadInput, match=r"one.npy has frames of 64 x 27; the fsa_softflex_2048 mat is 64 x 32"):
+        read_recording(tmp_path / "one.npy", FSA, "mmHg")
     with pytest.raises(BadInput, match="finite and >= 0"):
         read_recording(-img, BT, "mmHg")
     with pytest.raises(BadInput, match=r"values up to 1e\+39, out of range: too large for float32"):
@@ -167,6 +171,14 @@ def test_read_frames_keeps_every_frame_in_float32_and_reads_files_as_read_record
     (tmp_path / "nan.txt").write_text("\t".join(["1"] * 2047 + ["nan"]) + "\n")
     with pytest.raises(BadInput, match="nan.txt line 1: reading 2048"):
         read_frames(tmp_path / "nan.txt", FSA.shape)
+    np.save(tmp_path / "neg.npy", -frames)  # the file is named, as for every other bad reading
+    with pytest.raises(BadInput, match=r"recording '.*neg.npy' has negative readings \(min -"):
+        read_frames(tmp_path / "neg.npy", BT.shape)
+    with pytest.raises(BadInput, match=r"^recording '.*neg.npy' has negative readings"):
+        read_recording(tmp_path / "neg.npy", BT, "mmHg")
+    (folder / "frame_3.npy").write_bytes(b"not a frame")
+    with pytest.raises(BadInput, match=r"^frame file '.*frame_3.npy' is not a readable .npy file"):
+        read_frames(folder, BT.shape)
 
 
 def test_a_long_text_recording_is_read_without_copies_of_the_night():

@@ -96,13 +96,16 @@ def test_evaluate_verb(setup, capsys):
     assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep")]) == 0
     rep = json.loads((root / "rep" / "report.json").read_text())
     assert rep["summary"]["all"]["count"] == 4
-    assert "| PressureNet (Mod1 + Mod2) |" in (root / "rep" / "report.md").read_text()
+    report = (root / "rep" / "report.md").read_text()
+    assert "| PressureNet (Mod1 + Mod2) |" in report and "reading: the network\n" in report
+    assert "turn bias: |estimated roll| less |true roll|" in report  # every column is said in words
     assert "MPJPE" in capsys.readouterr().out
     assert main(["evaluate", "--model", str(root / "missing.pt"), "--data", str(root / "data")]) == 2
     assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep_m"),
                  "--mirror"]) == 0
     rep_m = json.loads((root / "rep_m" / "report.json").read_text())
     assert rep_m["mirror"] is True and rep["mirror"] is False and rep_m["summary"]["all"]["count"] == 4
+    assert "reading: the network, mirror-averaged (--mirror)\n" in (root / "rep_m" / "report.md").read_text()
     assert rep_m["summary"]["all"]["mod2"] != rep["summary"]["all"]["mod2"]  # an untrained net is not symmetric
     assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep_f"),
                  "--fit"]) == 0

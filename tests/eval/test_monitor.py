@@ -114,6 +114,14 @@ def test_every_turn_of_a_known_schedule_is_found_and_no_other():
     assert tl.posture[3005] == "supine" and tl.posture[3100] == "left" and np.isnan(tl.roll_deg[7850])
 
 
+def test_a_recording_with_nobody_on_the_mat_is_one_empty_spell():
+    t, frames, roll = _night([(None, 30)])  # no frame carries a body: the network reads none
+    tl = _read(t, frames, roll, MonitorConfig())
+    assert set(tl.posture) == {"empty"} and np.isnan(tl.roll_deg).all() and not tl.estimated.any()
+    assert tl.posture_s["empty"] == pytest.approx(30.0) and tl.turns == [] and tl.alerts == []
+    json.dumps(tl.to_dict(), allow_nan=False)
+
+
 def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval():
     schedule = [(0, 3000), (85, 1800), (3, 8000)]
     t, frames, roll = _night(schedule)

@@ -6,7 +6,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from pressurepose.errors import BadInput  # noqa: E402
-from pressurepose.viz.mesh import VIEWS, draw_capsules, draw_mesh  # noqa: E402
+from pressurepose.viz.mesh import VIEWS, draw_capsules, draw_mesh, label_along_bed  # noqa: E402
 
 
 @pytest.mark.parametrize("name", list(VIEWS))
@@ -28,3 +28,14 @@ def test_front_view_shows_body_left_on_image_right_and_culls_back_faces():
     plt.close(fig)
     with pytest.raises(BadInput, match="unknown view"):
         draw_mesh(ax, verts, faces, "diagonal")
+
+
+def test_the_bed_axis_reads_the_distance_from_the_head_end_not_negative_y():
+    fig, ax = plt.subplots()
+    ax.plot([0.0, 0.5], [0.0, -1.8])  # pictures seen from above or below the mat plot -y: feet below
+    ax.set_yticks([0.0, -0.5, -1.0, -1.5])
+    label_along_bed(ax)
+    fig.canvas.draw()
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["0.00", "0.50", "1.00", "1.50"]
+    assert ax.get_ylabel() == "from the head end (m)"
+    plt.close(fig)

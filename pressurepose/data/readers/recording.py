@@ -107,7 +107,7 @@ def read_file_frames(path: str | Path, shape: tuple[int, int], what: str = "reco
     gets a leading axis; other shapes are returned for the caller to refuse with its own hint), a
     ``.csv`` of one frame, or a ``.txt`` of one frame a line or one frame as ``rows`` lines (PhysioNet
     PMD experiments I and II). BadInput naming ``what`` and the file for anything else, and for
-    readings that are not finite numbers."""
+    readings that are not finite numbers or are negative."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in RECORDING_SUFFIXES:
@@ -117,6 +117,9 @@ def read_file_frames(path: str | Path, shape: tuple[int, int], what: str = "reco
     arr = _text_frames(path, shape) if suffix == ".txt" else read_array_file(path, what)
     if not (arr.dtype == np.float32 and np.isfinite(arr.sum(dtype=np.float64))):  # else no copy
         arr = finite_float32(arr, f"{what} {str(path)!r}")
+    if arr.size and arr.min() < 0:
+        raise BadInput(f"{what} {str(path)!r} has negative readings (min {arr.min():.3g}); a pressure mat's "
+                       f"readings are >= 0")
     return arr[None] if arr.ndim == 2 else arr
 
 
@@ -165,14 +168,17 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
     if units == "raw" and weight_kg is None and gain is None:
         gain = gain_of_record(record, mat)
         if gain is None:
-            raise BadInput("raw readings need the person's weight (kg) or a calibration gain (mmHg per raw unit) to "
-                           "become mmHg, the unit the model reads: the weight sets each frame's total load "
-                           "(sum of p x taxel area) to the body's m g, as the body rests on the mat")
+            raise BadInput("raw readings need the person's weight in kg (--weight-kg, weight_kg in Python) or your "
+                           "mat's calibration gain in mmHg per raw unit (--gain, gain) to become mmHg, the unit the "
+                           "model reads: the weight sets each frame's total load (sum of p x taxel area) to the "
+                           "body's m g")
     frames, index, name = _frames(source, spec.shape)
     if frames.ndim != 3 or frames.shape[1:] != spec.shape or len(frames) == 0:
         hint = (" (rows and columns swapped? row 0 runs across the bed at the head or the feet)"
                 if frames.ndim == 3 and frames.shape[1:] == spec.shape[::-1] else "")
-        raise BadInput(f"{name} has shape {frames.shape}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
+        got = (f"has frames of {frames.shape[1]} x {frames.shape[2]}" if frames.ndim == 3 and len(frames)
+               else f"has shape {frames.shape}")  # one frame: its own shape, not the (1, R, C) it was read as
+        raise BadInput(f"{name} {got}; the {spec.name} mat is {spec.rows} x {spec.cols}: expected "
                        f"({spec.rows}, {spec.cols}) or (F, {spec.rows}, {spec.cols}){hint}")
     frames = finite_float32(frames, name)
     if np.any(frames < 0):
@@ -217,7 +223,7 @@ def read_frames(source, shape: tuple[int, int]) -> np.ndarray:
             raise BadInput(f"recording folder {str(path)!r} holds no frame files ({', '.join(FRAME_SUFFIXES)})")
         frames = []
         for f in files:
-            img = read_file_frames(f, shape, "frame file")
+            img = read_file_frames(f, shape, "frame")
             if img.shape != (1, *shape):
                 raise BadInput(f"frame file {str(f)!r} has shape {img.shape[1:] if len(img) == 1 else img.shape}; "
                                f"expected one {shape[0]} x {shape[1]} frame")
