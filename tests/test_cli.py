@@ -71,3 +71,13 @@ def test_unknown_verb_is_an_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fly"])
     assert exc.value.code == 2
+
+
+@pytest.mark.parametrize("module", ["pressurepose", "pressurepose.cli"])
+def test_python_m_runs_the_command(module):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", module, "info", "--help"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "usage:" in done.stdout and "info" in done.stdout
