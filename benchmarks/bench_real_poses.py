@@ -21,8 +21,8 @@ any draw under the rules can come. ``--settle N`` also settles N bodies per gend
 natural and general partitions, and N of the held-out fits, on the default bed (about 1 s each) and
 measures their rests. Then replaces the ``bench:real-poses`` section of docs/RESULTS.md.
 
-Goals: natural_supine and natural_lateral draws within 3 cm of the held-out people; their rests
-within 5 cm.
+Goals: natural_supine and natural_lateral draws within 3 cm of the held-out people (the mean over
+three sampler seeds); their rests within 5 cm.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ PARTITION_GROUPS = {"general_supine": "supine", "natural_supine": "supine", "han
 GROUP_CLASSES = {"supine": ("supine",), "lateral": ("left_lateral", "right_lateral")}
 SETTLED = ("general_supine", "natural_supine", "general_lateral", "natural_lateral")
 GOAL_DRAWN_CM, GOAL_SETTLED_CM = 3.0, 5.0
+GOAL_SEEDS = 3  # sampler seeds the drawn goal is judged over
 PAIRS = ("head", "elbow", "wrist", "knee", "ankle")
 
 
@@ -193,10 +194,17 @@ def main(argv=None) -> int:
         "Draw speed, bodies per CPU second: " + ", ".join(f"`{k}` {args.count / max(v, 1e-9):.0f}"
                                                          for k, v in cpu.items()) + ".",
     ]
-    goals = {k: drawn[k].mean * 100 for k in ("natural_supine", "natural_lateral")}
-    lines += ["", "Goal, drawn natural poses within "
-              f"{GOAL_DRAWN_CM:.0f} cm of held-out people: " + ", ".join(
-                  f"`{k}` {v:.1f} cm ({'met' if v <= GOAL_DRAWN_CM else 'not met'})" for k, v in goals.items()) + "."]
+    # the goal over GOAL_SEEDS sampler seeds: one seed's draws can land 0.4 cm from another's
+    goals = {}
+    for k in ("natural_supine", "natural_lateral"):
+        held = sets[PARTITION_GROUPS[k]][1]
+        goals[k] = [drawn[k].mean * 100] + [100 * end_joint_distances(draw(k, args.count, args.seed + s)[0], held).mean
+                                           for s in range(1, GOAL_SEEDS)]
+    seeds = f"seeds {args.seed}-{args.seed + GOAL_SEEDS - 1}"
+    lines += ["", f"Goal, drawn natural poses within {GOAL_DRAWN_CM:.0f} cm of held-out people, judged by the mean over "
+              f"{seeds} ({args.count} bodies each): " + ", ".join(
+                  f"`{k}` {np.mean(v):.1f} cm ({min(v):.2f}-{max(v):.2f}; "
+                  f"{'met' if np.mean(v) <= GOAL_DRAWN_CM else 'not met'})" for k, v in goals.items()) + "."]
     if args.settle:
         settled = list(head)
         at_rest = {}

@@ -23,8 +23,8 @@ only the values beyond (2.2 -> 2.5 cm). The limits are the settle's too
                    matches the public sampler's fuller capsules). A colliding pose is first moved
                    apart as little as frees it: only the colliding limbs' joints (hip, knee, ankle /
                    shoulder, elbow, wrist) turn, by Gauss-Newton steps on the capsules' summed
-                   overlap under the metric of the body's joint positions (each step undoes the
-                   linearised overlap with the least movement of the 24 joints, no joint moving
+                   overlap (each step undoes the linearised overlap with the least movement of
+                   the 24 joints and the least turn of the pose values, no joint moving
                    more than ``SEPARATE_MAX_STEP_M`` a step), until the pairs
                    lie ``SEPARATE_CLEARANCE_M`` apart; the move is then shortened to about the
                    least part of it that frees the pose (halving the way back to the drawn pose,
@@ -47,11 +47,12 @@ Separating is what most separates the natural partitions' bodies from real peopl
 once nudged by random nudges kept whole (elbows 2.4 and 4.0 cm, wrists 3.1 and 5.6 cm; side-lying
 2.3 and 2.7 cm). Measured on 600 drawn bodies per partition, seeds 0 and 1 (mean of the two; the
 seeds alone differ by up to 0.6 cm), random nudges each shortened to the least that frees the pose
-against the least move: ``natural_supine`` 3.56 -> 3.23 cm, ``natural_lateral`` 2.83 -> 2.66 cm, and
-the held-out fits through the rules 3.01 -> 2.87 cm (supine) and 1.66 -> 1.56 cm (side-lying) from
+against the least move: ``natural_supine`` 3.56 -> 3.28 cm, ``natural_lateral`` 2.83 -> 2.70 cm, and
+the held-out fits through the rules 3.01 -> 2.93 cm (supine) and 1.66 -> 1.58 cm (side-lying) from
 themselves, at about the same CPU. (Uncapped Gauss-Newton steps, each undoing the whole linearised
-overlap, reached 3.30 cm supine, and moved folded arms twice as far as the best random nudge.)
-The fits' own distance through the rules (2.87 cm supine) is about as close as drawn supine bodies
+overlap, moved folded arms twice as far as the best random nudge; without the cost of turning,
+the least move bent wrists, which the end-joint distance does not see, by up to 130 degrees.)
+The fits' own distance through the rules (2.93 cm supine) is about as close as drawn supine bodies
 can come.
 
 The hip twist is real in the fits, not an artefact of the angles: the limits bound the components
@@ -99,7 +100,9 @@ SEPARATE_MAX_STEP_M = 0.02  # the fastest joint moves at most this far a step, s
 SEPARATE_FD_RAD = 1e-5  # finite-difference step of the overlap's and the joints' derivatives
 SEPARATE_CLEARANCE_M = 1e-3  # the least move aims for the pairs this far apart (then shortened back)
 SEPARATE_DONE_M = 1e-6  # summed overlap (m) at which it is that far apart, less rounding
-SEPARATE_DAMPING_M2 = 1e-4  # keeps A = J^T J + damping invertible where a joint moves no other
+# the least move's cost of turning a pose value: a radian costs as much as 10 cm of joint movement. With
+# 1 cm, moves that shift few joints (a wrist, which no limit bounds) bent up to 130 degrees
+SEPARATE_ANGLE_COST_M2 = 1e-2
 # ... else rounds of random nudges of the colliding limbs' joints, sd growing per round
 SEPARATE_ROUNDS = 24
 SEPARATE_TRIES = 16
@@ -291,8 +294,9 @@ class WholePoseRun(Run):
     def _least_move(self, i: int, base: np.ndarray, dofs: np.ndarray, moving: set[int]) -> np.ndarray | None:
         """A free body pose (69,) of body i reached from the colliding ``base`` by moving only the pose
         values ``dofs``: Gauss-Newton steps that undo the summed overlap of the pairs with a capsule
-        in ``moving`` (:meth:`_overlap`) at the least movement of the body's 24 joints (the step
-        ``-t A^-1 g``, g the overlap's gradient, A = J^T J with J the joints' Jacobian, both by
+        in ``moving`` (:meth:`_overlap`) at the least movement of the body's 24 joints and turn of
+        its pose values (the step ``-t A^-1 g``, g the overlap's gradient, A = J^T J +
+        ``SEPARATE_ANGLE_COST_M2`` I with J the joints' Jacobian, both by
         finite differences of ``SEPARATE_FD_RAD``, t the step that zeroes the linearised overlap
         or, if less, the one that moves the fastest joint ``SEPARATE_MAX_STEP_M``), each step
         clipped to the limits. None where ``SEPARATE_ITERATIONS`` steps leave it colliding."""
@@ -301,7 +305,7 @@ class WholePoseRun(Run):
         n = len(dofs)
         probe = np.zeros((n + 1, 69))
         probe[np.arange(1, n + 1), dofs] = SEPARATE_FD_RAD
-        damping = SEPARATE_DAMPING_M2 * np.eye(n)
+        angle_cost = SEPARATE_ANGLE_COST_M2 * np.eye(n)
         q = base
         for _ in range(SEPARATE_ITERATIONS):
             over, pos = self._overlap(i, q + probe, a, b)
@@ -310,7 +314,7 @@ class WholePoseRun(Run):
                 return q if not self.collision.contacts(ends[0], self.col_radius[i]) else None
             g = (over[1:] - over[0]) / SEPARATE_FD_RAD
             J = (pos[1:] - pos[0]).reshape(n, -1).T / SEPARATE_FD_RAD  # (72, n) m/rad
-            d = -np.linalg.solve(J.T @ J + damping, g)
+            d = -np.linalg.solve(J.T @ J + angle_cost, g)
             slope = g @ d
             if not slope < 0:
                 return None
