@@ -6,8 +6,8 @@ thresholds (docs/real-mats.md).
 
 --real: a PMD experiment I folder (every flat-bed and inclined-bed frame, made model input as
 ``infer`` makes it); --synthetic: dataset folders made by ``pressurepose generate``. The non-body
-images (noise, empty, constant, blocks, a few taxels, the pelvis rows of real images) are made here
-with a fixed seed.
+images (noise, empty, constant, blocks, a few taxels, the pelvis rows of real images, noise read as
+a recording on a mat) are made here with a fixed seed.
 """
 
 from __future__ import annotations
@@ -45,13 +45,31 @@ def non_bodies(shape: tuple[int, int], real: np.ndarray | None, seed: int = 0) -
     return out
 
 
+def read_noise(grid, seed: int = 1) -> dict[str, np.ndarray]:
+    """{name: (N, R, C) mmHg on ``grid``} uniform noise read as a recording on a mat (raw and
+    weight-normalised to 70 kg, or mmHg) and made model input as ``infer --mat`` makes it."""
+    from pressurepose.data.readers.recording import read_recording
+    from pressurepose.mat import get_mat
+
+    rng = np.random.default_rng(seed)
+    out = {}
+    for name in ("boditrak_bt3510", "fsa_softflex_2048"):
+        shape = get_mat(name).shape
+        raw = rng.uniform(0, 1000, (20, *shape)).astype(np.float32)
+        out[f"raw noise 0-1000 on {name}, 70 kg"] = read_recording(raw, name, "raw", weight_kg=70).model_input(grid)
+        mmhg = rng.uniform(0, 20, (20, *shape)).astype(np.float32)
+        out[f"noise 0-20 mmHg on {name}"] = read_recording(mmhg, name, "mmHg").model_input(grid)
+    return out
+
+
 def describe(name: str, images: np.ndarray, grid) -> None:
     from pressurepose.net.plausibility import check_plausible
 
     verdict = check_plausible(images, grid)
     s = verdict.stats
     cells = [f"{k} {v.min():.3f}-{v.max():.3f}" for k, v in
-             (("share", s.loaded_share), ("length_m", s.length_m), ("peak/mean", s.peak_over_mean))]
+             (("share", s.loaded_share), ("length_m", s.length_m), ("peak/mean", s.peak_over_mean),
+              ("smoothness", s.smoothness))]
     doubts = {}
     for d in verdict.doubt:
         if d is not None:
@@ -79,7 +97,7 @@ def main() -> None:
     for folder in args.synthetic:
         shards = sorted(Path(folder).rglob("shard-*.h5"))
         describe(f"simulated {folder}", np.concatenate([load_pressure(s) for s in shards]), grid)
-    for name, images in non_bodies(grid.shape, real).items():
+    for name, images in {**non_bodies(grid.shape, real), **read_noise(grid)}.items():
         describe(name, images, grid)
 
 

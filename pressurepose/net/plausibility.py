@@ -2,14 +2,17 @@
 
 PressureNet returns a body for any image, also for sensor noise, an empty mat or a box. The check
 here reads the image alone, in the model's units (mmHg on the model's mat, after the road every real
-recording takes: :meth:`pressurepose.data.readers.images.RealImages.model_input`), with three
-statistics of its load above the contact floor (:data:`CONTACT_FLOOR_MMHG`):
+recording takes: :meth:`pressurepose.data.readers.images.RealImages.model_input`), with four
+statistics of its load above the contact floor (:data:`CONTACT_FLOOR_MMHG`; readings at or below it
+count as 0, as the model drops them):
 
 * ``loaded_share``: the share of the mat's taxels that read above the floor;
 * ``length_m``: how far along the bed the load reaches: the rows between the 1 % and the 99 % points
   of the load's distribution along the bed, times the row pitch (a few stray taxels do not stretch it);
 * ``peak_over_mean``: the highest reading over the mean reading of the loaded taxels (a body presses
-  hardest under its bones; a box or a uniform reading presses evenly).
+  hardest under its bones; a box or a uniform reading presses evenly);
+* ``smoothness``: the correlation of each taxel's reading with its neighbour's, across and along the
+  bed (a body's load changes gradually from taxel to taxel; sensor noise does not).
 
 :func:`image_stats` measures them; :func:`check_plausible` compares them with thresholds measured
 on real and simulated bodies and on images that are not a body (the constants below;
@@ -30,6 +33,13 @@ from pressurepose.mat import MatSpec
 # which it drops readings. The thresholds below were measured with it, on the shipped model's mat
 # (BodiTrak BT3510, 64 x 27 taxels of 2.86 cm) and hold for the image, whatever model reads it.
 CONTACT_FLOOR_MMHG = 5.0
+# Correlation of neighbouring taxels' readings (the pairs (r, c)-(r, c+1) and (r, c)-(r+1, c) pooled,
+# readings at or below the floor as 0). Measured: PMD experiment I 0.669-0.924 (flat-bed frames),
+# 0.720-0.917 (inclined); simulated 0.745-0.921. Not a body: uniform noise on the model's mat
+# -0.05-0.07, in mmHg or raw and weight-normalised to 70 kg through the reading road (where its
+# loaded share, 0.35-0.37, looks like a body's); noise on PMD's FSA mat resampled onto the model's
+# (which smooths it) 0.16-0.34. The bound lies 0.17 under the real minimum and 0.16 over the noise.
+MIN_SMOOTHNESS = 0.5
 # Share of the mat's taxels above the floor. Measured: PhysioNet PMD experiment I, 0.156-0.348 over
 # its 2,178 flat-bed frames (0.160-0.314 on its 468 inclined-bed frames); simulated bodies
 # (`generate`, partitions general and general_lateral, f and m, 30 each, seed 7) 0.102-0.301. Not a
@@ -59,6 +69,7 @@ class Doubt(enum.Enum):
     EMPTY = enum.auto()       # nothing reads above the floor
     TOO_LITTLE = enum.auto()  # too few taxels loaded
     TOO_SPREAD = enum.auto()  # too many taxels loaded
+    NOISY = enum.auto()       # neighbouring taxels read unrelated values
     TOO_SHORT = enum.auto()   # the load reaches too short a way along the bed
     TOO_EVEN = enum.auto()    # the load is nearly even over its taxels
 
@@ -68,10 +79,12 @@ class ImageStats:
     """Statistics of B images (module doc), each (B,) float64: loaded_share (share of the mat's
     taxels above the floor), length_m (metres along the bed holding the middle 98 % of the load),
     peak_mmhg (highest reading), mean_mmhg (mean reading of the taxels above the floor; 0 where there
-    are none) and loaded (count of taxels above the floor)."""
+    are none), smoothness (correlation of neighbouring taxels' readings, -1..1; 0 where the readings
+    do not vary) and loaded (count of taxels above the floor)."""
 
     loaded_share: np.ndarray
     length_m: np.ndarray
+    smoothness: np.ndarray
     peak_mmhg: np.ndarray
     mean_mmhg: np.ndarray
     loaded: np.ndarray
@@ -97,6 +110,19 @@ def _images(pressure, mat: MatSpec) -> np.ndarray:
     return arr
 
 
+def neighbour_correlation(images: np.ndarray) -> np.ndarray:
+    """(B,) Pearson correlation of each image's (B, R, C) readings with their neighbours' across
+    (r, c)-(r, c+1) and along (r, c)-(r+1, c) the bed, both kinds of pair pooled; 0 where it is
+    undefined (readings that do not vary)."""
+    B = len(images)
+    a = np.concatenate([images[:, :, :-1].reshape(B, -1), images[:, :-1, :].reshape(B, -1)], axis=1)
+    b = np.concatenate([images[:, :, 1:].reshape(B, -1), images[:, 1:, :].reshape(B, -1)], axis=1)
+    a = a - a.mean(1, keepdims=True)
+    b = b - b.mean(1, keepdims=True)
+    norm = np.sqrt((a * a).sum(1) * (b * b).sum(1))
+    return np.divide((a * b).sum(1), norm, out=np.zeros(B), where=norm > 0)
+
+
 def image_stats(pressure, mat: MatSpec, floor_mmhg: float = CONTACT_FLOOR_MMHG) -> ImageStats:
     """:class:`ImageStats` of images (B, R, C) or (R, C), mmHg on ``mat`` (its row pitch gives the
     length); contact: readings above ``floor_mmhg``."""
@@ -110,6 +136,7 @@ def image_stats(pressure, mat: MatSpec, floor_mmhg: float = CONTACT_FLOOR_MMHG) 
     last = (along < 1.0 - _TAIL).sum(1)       # the row where it passes 99 %
     length = np.where(total > 0, (last - first + 1) * mat.pitch_row_m, 0.0)
     return ImageStats(loaded_share=loaded / (mat.rows * mat.cols), length_m=length.astype(np.float64),
+                      smoothness=neighbour_correlation(load),
                       peak_mmhg=arr.max((1, 2)), mean_mmhg=np.divide(total, loaded, out=np.zeros_like(total),
                                                                       where=loaded > 0), loaded=loaded)
 
@@ -144,7 +171,7 @@ class Plausibility:
         return {"plausible": True} if self.doubt[i] is None else {"plausible": False, "doubt": self.reason[i]}
 
 
-def _doubt(share: float, loaded: float, length: float, ratio: float) -> tuple[Doubt | None, str]:
+def _doubt(share: float, loaded: float, length: float, ratio: float, smooth: float) -> tuple[Doubt | None, str]:
     """The first doubt about one image's statistics and its sentence (None, '' when there is none)."""
     if loaded == 0:
         return Doubt.EMPTY, (f"the mat reads no load above {CONTACT_FLOOR_MMHG:g} mmHg: nobody lies on it")
@@ -155,6 +182,9 @@ def _doubt(share: float, loaded: float, length: float, ratio: float) -> tuple[Do
     if share > MAX_LOADED_SHARE:
         return Doubt.TOO_SPREAD, (f"{100 * share:.0f} % of the mat carries load, where a person lying down loads at "
                                   f"most about 35 %: sensor noise, a uniform reading or something covering the mat")
+    if smooth < MIN_SMOOTHNESS:
+        return Doubt.NOISY, (f"neighbouring taxels read unrelated values (correlation {smooth:.2f}, where a person's "
+                             f"image gives 0.67 or more): sensor noise, not a person")
     if length < MIN_LENGTH_M:
         return Doubt.TOO_SHORT, (f"the load reaches only {length:.2f} m along the bed, where a person lying down "
                                  f"reaches 0.8 m or more: a person sitting, or an object")
@@ -172,5 +202,5 @@ def check_plausible(pressure, mat: MatSpec) -> Plausibility:
     the image's doubt (:class:`Doubt`, in the order of its members)."""
     stats = image_stats(pressure, mat)
     found = [_doubt(*v) for v in zip(stats.loaded_share.tolist(), stats.loaded.tolist(), stats.length_m.tolist(),
-                                      stats.peak_over_mean.tolist())]
+                                      stats.peak_over_mean.tolist(), stats.smoothness.tolist())]
     return Plausibility(doubt=tuple(d for d, _ in found), reason=tuple(r for _, r in found), stats=stats)

@@ -47,11 +47,26 @@ def test_noise_an_empty_mat_a_box_and_a_few_taxels_are_flagged_with_their_reason
     assert verdict.record(0) == {"plausible": False, "doubt": verdict.reason[0]}
 
 
+@pytest.mark.parametrize("mat", ["boditrak_bt3510", "fsa_softflex_2048"])
+def test_noise_read_as_a_raw_recording_is_flagged_as_noise(mat):
+    """Raw noise set to a 70 kg load on reading loads as few taxels as a body does (about 35 %); its
+    taxels' readings are unrelated, also after resampling from another mat (which smooths them)."""
+    from pressurepose.data.readers.recording import read_recording
+
+    raw = np.random.default_rng(2).uniform(0, 1000, (4, *get_mat(mat).shape)).astype(np.float32)
+    x = read_recording(raw, mat, "raw", weight_kg=70).model_input(GRID)
+    verdict = check_plausible(x, GRID)
+    assert verdict.doubt == (Doubt.NOISY,) * 4 and "noise" in verdict.reason[0]
+    assert (verdict.stats.loaded_share < MAX_LOADED_SHARE).all()  # not caught by the share alone
+
+
 def test_the_statistics_are_in_the_mats_units():
     stats = image_stats(block(20, 10), GRID)  # one image (R, C) is a batch of one
     assert stats.loaded_share[0] == pytest.approx(200 / (R * C))
     assert stats.length_m[0] == pytest.approx(20 * GRID.pitch_row_m)
     assert stats.peak_over_mean[0] == pytest.approx(1.0) and stats.loaded[0] == 200
+    assert 0.9 < stats.smoothness[0] < 1.0
+    assert image_stats(np.full((R, C), 4.0), GRID).smoothness[0] == 0  # under the floor: nothing varies
     stretched = image_stats(block(20, 10), custom_mat(rows=R, cols=C, pitch_row_m=2 * GRID.pitch_row_m,
                                                        pitch_col_m=GRID.pitch_col_m))
     assert stretched.length_m[0] == pytest.approx(2 * stats.length_m[0])
@@ -109,3 +124,32 @@ def test_every_pmd_i_image_evaluate_real_scores_is_not_flagged(frames):
     verdict = check_plausible(x, net.config.grid)
     assert len(x) >= 180
     assert verdict.ok.all(), [verdict.reason[i] for i in verdict.doubtful[:3]]
+
+
+def test_infer_warns_about_each_doubtful_image_and_still_writes_its_estimate(simulated, tmp_path, capsys):
+    """The shipped model on uniform noise, a body and a box (mmHg on its mat), then on a raw
+    recording on the same mat whose last frame is noise: one warning line per doubtful image, naming
+    the image or frame and the reason; the estimates are written, with "plausible" and "doubt"."""
+    import json
+
+    from pressurepose.cli import main
+
+    noise = np.random.default_rng(5).uniform(0, 20, (R, C))
+    np.save(tmp_path / "three.npy", np.stack([noise, simulated[0], block(15, 12)]).astype(np.float32))
+    assert main(["infer", str(tmp_path / "three.npy"), "--gender", "f", "--out", str(tmp_path / "a"),
+                 "--max-figures", "0"]) == 0
+    captured = capsys.readouterr()
+    lines = [x for x in captured.err.splitlines() if "does not look like a person lying on the mat" in x]
+    assert len(lines) == 2 and lines[0].startswith(f"warning: image 0 of {tmp_path / 'three.npy'} ")
+    assert "sensor noise" in lines[0] and lines[1].startswith("warning: image 2 ") and "sitting" in lines[1]
+    assert "image 1: " in captured.out and "3 estimate(s) written" in captured.out
+    saved = json.loads((tmp_path / "a" / "estimate.json").read_text())["estimates"]
+    assert [r["plausible"] for r in saved] == [False, True, False]
+    assert "doubt" not in saved[1] and "%" in saved[0]["doubt"] and "0.43 m" in saved[2]["doubt"]
+
+    frames = np.stack([simulated[0], simulated[1], noise]) * 3.0  # raw readings, weight-normalised on reading
+    np.save(tmp_path / "rec.npy", frames.astype(np.float32))
+    assert main(["infer", str(tmp_path / "rec.npy"), "--mat", "boditrak_bt3510", "--units", "raw", "--weight-kg",
+                 "70", "--gender", "m", "--out", str(tmp_path / "b"), "--max-figures", "0"]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if "does not look like a person" in x]
+    assert len(lines) == 1 and lines[0].startswith(f"warning: frame 2 of {tmp_path / 'rec.npy'} ")
