@@ -98,13 +98,9 @@ class ImageStats:
         return np.divide(self.peak_mmhg, self.mean_mmhg, out=np.zeros(len(self)), where=self.mean_mmhg > 0)
 
 
-def _images(pressure, mat: MatSpec) -> np.ndarray:
+def _images(pressure) -> np.ndarray:
+    """(B, R, C) float64 readings, checked: BadInput for NaN, infinite or negative ones."""
     arr = np.asarray(pressure, dtype=np.float64)
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.ndim != 3 or arr.shape[1:] != mat.shape:
-        raise BadInput(f"images of shape {np.shape(pressure)}: expected ({mat.rows}, {mat.cols}) or "
-                       f"(B, {mat.rows}, {mat.cols}) readings on the mat {mat.name!r}")
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise BadInput("images hold NaN, infinite or negative readings; expected pressures >= 0 (mmHg)")
     return arr
@@ -123,11 +119,24 @@ def neighbour_correlation(images: np.ndarray) -> np.ndarray:
     return np.divide((a * b).sum(1), norm, out=np.zeros(B), where=norm > 0)
 
 
+_CHUNK = 1024  # images measured at a time (bounded memory on a night of frames)
+
+
 def image_stats(pressure, mat: MatSpec, floor_mmhg: float = CONTACT_FLOOR_MMHG) -> ImageStats:
     """:class:`ImageStats` of images (B, R, C) or (R, C), mmHg on ``mat`` (its row pitch gives the
-    length); contact: readings above ``floor_mmhg``."""
-    arr = _images(pressure, mat)
+    length); contact: readings above ``floor_mmhg``. Measured :data:`_CHUNK` images at a time."""
     require_non_negative("contact floor (mmHg)", floor_mmhg)
+    given = np.asarray(pressure)
+    given = given[None] if given.ndim == 2 else given
+    if given.ndim != 3 or given.shape[1:] != mat.shape or given.dtype.kind not in "fiub":
+        raise BadInput(f"images of shape {np.shape(pressure)} ({given.dtype}): expected ({mat.rows}, {mat.cols}) or "
+                       f"(B, {mat.rows}, {mat.cols}) readings (mmHg) on the mat {mat.name!r}")
+    parts = [_chunk_stats(_images(given[s:s + _CHUNK]), mat, floor_mmhg)
+             for s in range(0, max(len(given), 1), _CHUNK)]
+    return ImageStats(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in ImageStats.__dataclass_fields__})
+
+
+def _chunk_stats(arr: np.ndarray, mat: MatSpec, floor_mmhg: float) -> ImageStats:
     load = np.where(arr > floor_mmhg, arr, 0.0)
     loaded = (load > 0).sum((1, 2)).astype(np.float64)
     total = load.sum((1, 2))
@@ -136,9 +145,8 @@ def image_stats(pressure, mat: MatSpec, floor_mmhg: float = CONTACT_FLOOR_MMHG) 
     last = (along < 1.0 - _TAIL).sum(1)       # the row where it passes 99 %
     length = np.where(total > 0, (last - first + 1) * mat.pitch_row_m, 0.0)
     return ImageStats(loaded_share=loaded / (mat.rows * mat.cols), length_m=length.astype(np.float64),
-                      smoothness=neighbour_correlation(load),
-                      peak_mmhg=arr.max((1, 2)), mean_mmhg=np.divide(total, loaded, out=np.zeros_like(total),
-                                                                      where=loaded > 0), loaded=loaded)
+                      smoothness=neighbour_correlation(load), peak_mmhg=arr.max((1, 2), initial=0.0),
+                      mean_mmhg=np.divide(total, loaded, out=np.zeros_like(total), where=loaded > 0), loaded=loaded)
 
 
 @dataclass(frozen=True)
