@@ -91,6 +91,7 @@ def run_monitor(args) -> int:
     import warnings
 
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from pressurepose.cli.net import body_specs
     from pressurepose.data.readers.recording import read_frames, resolve_mat
@@ -149,6 +150,12 @@ def run_monitor(args) -> int:
     dur = float(tl.summary()["duration_s"] or 0.0)
     print(f"{len(tl)} frames over {_clock(dur)} ({int((~occupied).sum())} without anybody on the mat); the network "
           f"read {int(tl.estimated.sum())} of them; {elapsed:.0f} s")
+    doubtful = np.flatnonzero(tl.doubtful)
+    if len(doubtful):
+        first = int(doubtful[0])
+        print(f"warning: {len(doubtful)} frame(s) do not look like a person lying on the mat, first frame {first} at "
+              f"{_clock(tl.times_s[first])}: {tl.plausibility.reason[first]}; their posture and pressures mean nothing "
+              f"(\"doubtful\" in timeline.csv)", file=sys.stderr)
     print("time in each posture: " + ", ".join(f"{k} {_clock(v)}" for k, v in tl.posture_s.items() if v > 0))
     print(f"{len(tl.turns)} turn(s)" + (":" if tl.turns else ""))
     for turn in tl.turns[:SHOWN_TURNS]:

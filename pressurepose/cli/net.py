@@ -208,6 +208,28 @@ def frame_ranges(frames) -> str:
 
 
 SHOWN_ESTIMATES = 5  # images whose pelvis and shape infer prints
+SHOWN_DOUBTS = 20  # images that do not look like a person lying down, one warning line each
+
+
+def image_name(est, i: int) -> str:
+    """'frame 12' (its frame in the recording) or 'image 3' (its index in the input)."""
+    return f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
+
+
+def doubt_lines(est, source: str) -> list[str]:
+    """One warning sentence per image of ``est`` that does not look like a person lying on the mat
+    (:attr:`~pressurepose.net.infer.Estimate.plausibility`), at most :data:`SHOWN_DOUBTS` and a
+    line counting the rest."""
+    if est.plausibility is None:
+        return []
+    doubtful = est.plausibility.doubtful
+    lines = [f"{image_name(est, int(i))} of {source} does not look like a person lying on the mat: "
+             f"{est.plausibility.reason[i]}; its estimate means nothing (written all the same)"
+             for i in doubtful[:SHOWN_DOUBTS]]
+    if len(doubtful) > SHOWN_DOUBTS:
+        lines.append(f"... and {len(doubtful) - SHOWN_DOUBTS} more images that do not look like a person lying on "
+                     f"the mat (\"plausible\": false in estimate.json)")
+    return lines
 
 
 def run_infer(args) -> int:
@@ -256,6 +278,8 @@ def run_infer(args) -> int:
                        **recording)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
+    for line in doubt_lines(est, str(args.pressure_file)):
+        print(f"warning: {line}", file=sys.stderr)
     from pressurepose.viz.estimate import save_estimate_figures
     from pressurepose.viz.sites import save_site_figures
 
@@ -278,9 +302,10 @@ def run_infer(args) -> int:
     turn = np.degrees(np.atleast_1d(roll_angle(est.pose[:shown])))
     for i, posture in enumerate(posture_of(est.pose[:shown])):
         root = est.joints[i, 0]
-        name = f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-        print(f"  {name}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, {mass[i]:.0f} kg, "
-              f"pelvis at x {root[0]:.2f}, y {root[1]:.2f} m{most_loaded(est, i)}")
+        doubt = ("" if est.plausibility is None or est.plausibility.ok[i]
+                 else " (not like a person lying on the mat: see the warning)")
+        print(f"  {image_name(est, i)}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, "
+              f"{mass[i]:.0f} kg, pelvis at x {root[0]:.2f}, y {root[1]:.2f} m{most_loaded(est, i)}{doubt}")
     if len(est) > SHOWN_ESTIMATES:
         print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")
     return 0

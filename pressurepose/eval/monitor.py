@@ -40,6 +40,7 @@ import numpy as np
 from pressurepose.body.sites import NO_SITE, SITES, site_stats
 from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
 from pressurepose.mat import MAX_TAXELS, MatSpec
+from pressurepose.net.plausibility import Plausibility
 from pressurepose.pose.posture import posture_index
 
 CAPILLARY_CLOSING_MMHG = 32.0  # Landis 1930
@@ -189,7 +190,9 @@ class Timeline:
     per site of :data:`~pressurepose.body.sites.SITES`; turns; posture_s {posture: seconds};
     above_s, longest_above_s {site: seconds loaded above the threshold (:func:`loaded_frames`), in
     all and the longest stretch};
-    alerts; config.
+    alerts; config; plausibility: whether each frame looks like a person lying on the mat
+    (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked), read through
+    :attr:`doubtful`.
     """
 
     times_s: np.ndarray
@@ -205,14 +208,25 @@ class Timeline:
     longest_above_s: dict[str, float]
     alerts: list[Alert]
     config: MonitorConfig = field(default_factory=MonitorConfig)
+    plausibility: Plausibility | None = None
 
     def __len__(self) -> int:
         return int(len(self.times_s))
+
+    @property
+    def doubtful(self) -> np.ndarray:
+        """(T,) bool: frames that carry a body read by the network (not empty) but whose image does
+        not look like a person lying on the mat (noise, an object, a person sitting ...): their
+        posture and body sites mean nothing. All False when the frames were not checked."""
+        if self.plausibility is None:
+            return np.zeros(len(self), dtype=bool)
+        return ~self.plausibility.ok & np.isfinite(self.roll_deg)
 
     def summary(self) -> dict:
         """The timeline's findings as a strict-JSON-ready dict (no per-frame rows)."""
         return {
             "frames": len(self), "frames_estimated": int(self.estimated.sum()),
+            "frames_doubtful": int(self.doubtful.sum()),
             "duration_s": _num(float(frame_durations(self.times_s).sum())),
             "settings": dataclasses.asdict(self.config),
             "turns": [{k: _num(v) for k, v in dataclasses.asdict(t).items()} for t in self.turns],
@@ -271,15 +285,17 @@ class Timeline:
 
     def to_csv(self) -> str:
         """One line per frame: time_s, posture, roll_deg, estimated, then ``<site>_peak_mmhg`` and
-        ``<site>_share`` for every site."""
+        ``<site>_share`` for every site, then doubtful (1: see :attr:`doubtful`)."""
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(["time_s", "posture", "roll_deg", "estimated", *[f"{s}_peak_mmhg" for s in SITES],
-                    *[f"{s}_share" for s in SITES]])
+                    *[f"{s}_share" for s in SITES], "doubtful"])
+        doubtful = self.doubtful
         for t in range(len(self)):
             roll = "" if not np.isfinite(self.roll_deg[t]) else f"{self.roll_deg[t]:.1f}"
             w.writerow([f"{self.times_s[t]:.3f}", self.posture[t], roll, int(self.estimated[t]),
-                        *[f"{v:.2f}" for v in self.peak_mmhg[t]], *[f"{v:.4f}" for v in self.share[t]]])
+                        *[f"{v:.2f}" for v in self.peak_mmhg[t]], *[f"{v:.4f}" for v in self.share[t]],
+                        int(doubtful[t])])
         return buf.getvalue()
 
 
@@ -391,11 +407,12 @@ def above_stretches(above, times, durations, relief_s: float) -> list[tuple[int,
 
 
 def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: MatSpec,
-             config: MonitorConfig = MonitorConfig()) -> Timeline:
+             config: MonitorConfig = MonitorConfig(), plausibility: Plausibility | None = None) -> Timeline:
     """The timeline of a recording: times (T,) s from :func:`frame_times`; frames (T, R, C) mmHg on
     ``mat``; ``selection`` from :func:`select_frames`; roll (E,) radians of the bodies of the E
     estimated frames and ``site_maps`` (E, R, C) their site maps
-    (:func:`pressurepose.body.sites.body_site_map`), in frame order."""
+    (:func:`pressurepose.body.sites.body_site_map`), in frame order; ``plausibility``: the frames'
+    check (:func:`pressurepose.net.plausibility.check_plausible`), or None."""
     t = np.asarray(times, dtype=np.float64)
     p = np.asarray(frames, dtype=np.float32)
     est = np.flatnonzero(selection.estimated)
@@ -407,6 +424,8 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
     if roll.shape != (len(est),) or maps.shape != (len(est), *mat.shape):
         raise BadInput(f"roll {roll.shape} and site maps {maps.shape} must hold one body per estimated frame "
                        f"({len(est)})")
+    if plausibility is not None and len(plausibility) != len(p):
+        raise BadInput(f"a plausibility check of {len(plausibility)} frames for {len(p)} frames")
     dur = frame_durations(t)
     which = np.full(len(t), -1, dtype=np.int64)  # each frame's body: index into the estimated frames
     which[selection.ref >= 0] = np.searchsorted(est, selection.ref[selection.ref >= 0])
@@ -444,7 +463,8 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
     alerts.sort(key=lambda a: (a.due_s, a.site))
     return Timeline(times_s=t, posture=posture.astype(str), roll_deg=roll_deg, estimated=selection.estimated.copy(),
                     peak_mmhg=peak, mean_mmhg=mean, share=share, turns=find_turns(runs, roll_deg, t),
-                    posture_s=posture_s, above_s=above_s, longest_above_s=longest, alerts=alerts, config=config)
+                    posture_s=posture_s, above_s=above_s, longest_above_s=longest, alerts=alerts, config=config,
+                    plausibility=plausibility)
 
 
 # ---------------------------------------------------------------------------------------- the network
@@ -453,13 +473,15 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat,
     times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
     :func:`pressurepose.net.infer.estimate`'s. Only the frames :func:`select_frames` picks are
-    estimated, ``chunk`` at a time (bounded memory), ``batch_size`` per network call."""
+    estimated, ``chunk`` at a time (bounded memory), ``batch_size`` per network call. Every frame is
+    checked for looking like a person lying on the mat (:attr:`Timeline.doubtful`)."""
     from pressurepose.body.sites import body_site_map
     from pressurepose.net.infer import (
         check_pressure,
         estimate,
         resolve_model,
     )
+    from pressurepose.net.plausibility import check_plausible
     from pressurepose.pose.posture import roll_angle
 
     net = resolve_model(model)
@@ -479,7 +501,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         est = estimate(p[part], gender, net, batch_size=batch_size)
         roll[s:s + len(part)] = roll_angle(est.pose)
         maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
-    return timeline(t, p, selection, roll, maps, grid, config)
+    return timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
 
 
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,

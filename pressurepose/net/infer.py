@@ -36,6 +36,7 @@ from pressurepose.files import (
 from pressurepose.mat import MatSpec
 from pressurepose.net.fit import FitConfig, fit_config, fit_to_print
 from pressurepose.net.model import GENDER_CODES, PressureNet
+from pressurepose.net.plausibility import Plausibility, check_plausible
 from pressurepose.net.pmr import PMRConfig, surface_maps
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
@@ -61,7 +62,10 @@ class Estimate:
     read (about 10 ms a body on one CPU core): :attr:`sites`, the load on each body site under the estimated body
     (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
     :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
-    surface (:func:`~pressurepose.body.sites.vertex_pressure`).
+    surface (:func:`~pressurepose.body.sites.vertex_pressure`). plausibility: whether each input
+    image looks like a person lying on the mat, and why not where it does not
+    (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked): an estimate of an
+    image that does not means nothing.
     """
 
     betas: np.ndarray
@@ -79,6 +83,7 @@ class Estimate:
     frame: np.ndarray | None = None
     pmr: PMRConfig = PMRConfig()
     vertex_site: np.ndarray | None = None
+    plausibility: Plausibility | None = None
     _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
     _sites: tuple[SiteLoads, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -104,9 +109,11 @@ class Estimate:
         return self._surface_maps()[1]
 
     def to_records(self) -> list[dict]:
-        """One JSON-ready dict per image."""
+        """One JSON-ready dict per image (with "plausible" and, where False, "doubt": the reason in
+        words, when the images were checked)."""
         frame = [{} if self.frame is None else {"frame": int(self.frame[i])} for i in range(len(self))]
-        return [{**frame[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
+        checked = [{} if self.plausibility is None else self.plausibility.record(i) for i in range(len(self))]
+        return [{**frame[i], **checked[i], "gender": self.gender[i], "betas": self.betas[i].tolist(), "pose": self.pose[i].tolist(),
                  "transl": self.transl[i].tolist(), "joints": self.joints[i].tolist()} for i in range(len(self))]
 
     def _site_loads(self) -> tuple[SiteLoads, np.ndarray] | None:
@@ -396,6 +403,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     0.3 s of one CPU core an image).
     what: the input's name in messages (default: the file, or 'pressure').
 
+    Each image (as the model reads it: mmHg on its mat) is checked for looking like a person lying
+    on the mat (:func:`pressurepose.net.plausibility.check_plausible`): ``Estimate.plausibility``
+    says which do not and why (``infer`` prints it); their estimates mean nothing.
     Warns (:func:`warnings.warn`, the sentences of :func:`pressure_warnings` and
     :func:`floor_warnings`) about empty images, readings above the sensor's range and images that read
     nothing above the model's contact floor; BadInput when every image is empty or readings lie
@@ -440,7 +450,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
                     mirror=bool(mirror), fitted=fitting is not None, frame=frame, pmr=net.config.pmr,
-                    vertex_site=vertex_sites_of(net, genders))
+                    vertex_site=vertex_sites_of(net, genders), plausibility=check_plausible(arr, net.config.grid))
 
 
 _VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

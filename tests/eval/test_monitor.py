@@ -138,7 +138,7 @@ def test_time_above_the_threshold_and_an_alert_after_the_repositioning_interval(
     json.dumps(tl.to_dict(), allow_nan=False)  # strict JSON
     lines = tl.to_csv().splitlines()
     assert len(lines) == len(t) + 1 and lines[0].startswith("time_s,posture,roll_deg,estimated,head_peak_mmhg")
-    assert len(lines[0].split(",")) == 4 + 2 * len(SITES)
+    assert len(lines[0].split(",")) == 5 + 2 * len(SITES) and lines[0].endswith(",doubtful")
 
 
 def test_the_json_record_holds_posture_segments_and_minutes_not_frames():
@@ -290,6 +290,27 @@ def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, c
     assert main([*args[:5], "raw", *args[6:], "--fps", "1"]) == 2
     err = capsys.readouterr().err
     assert "--fps" in err and "(400, 60, 27)" in err and "gap of 301 s" in err and "weight" in err
+
+
+@pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
+def test_frames_that_do_not_look_like_a_person_lying_are_marked(tmp_path, capsys):
+    """A minute of sensor noise amid a night: those frames are marked doubtful (timeline.csv, the
+    summary and a warning); the body's frames, the roll included, and the empty mat are not."""
+    from pressurepose.cli import main
+
+    frames, _ = night_recording([("supine", 60), ("left", 60), (None, 30)])
+    frames[70:80] = np.random.default_rng(1).uniform(0, 20, (10, 64, 27))
+    np.save(tmp_path / "night.npy", frames)
+    out = tmp_path / "out"
+    assert main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender",
+                 "f", "--fps", "1", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "warning: 10 frame(s) do not look like a person lying on the mat, first frame 70 at 0:01:10" in err
+    assert "sensor noise" in err
+    rows = (out / "timeline.csv").read_text().splitlines()
+    assert rows[0].endswith(",doubtful")
+    assert [k for k, r in enumerate(rows[1:]) if r.endswith(",1")] == list(range(70, 80))
+    assert json.loads((out / "timeline.json").read_text())["frames_doubtful"] == 10
 
 
 PMD = __import__("os").environ.get("PRESSUREPOSE_PMD", "")
