@@ -36,9 +36,10 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=seed_arg, default=d.seed, help=f"seed of the split, shuffling, noise, dropout and init (default {d.seed})")
     p.add_argument("--device", default=d.device, help="auto (CUDA if available), cpu, cuda, cuda:1 ...")
     p.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
-    p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU (~1.6x faster "
-                                                         "where the CPU has bf16 instructions; about 10x slower "
-                                                         "where it has none: look for bf16 in lscpu)")
+    p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU: 1.5-1.6x faster "
+                                                         "on some CPUs with bf16 instructions, 0.7-0.9x on others, "
+                                                         "about 10x slower where there are none (look for bf16 in "
+                                                         "lscpu); time a short run first (docs/training.md)")
     p.add_argument("--cnn", choices=tuple(CNN_VARIANTS), default=d.cnn,
                    help="CNN widths: paper (default) or half (half as wide, about 3.5x faster to train on a CPU; the "
                         "shipped model's)")
