@@ -9,9 +9,12 @@ frame while the network runs only when the person moves. The rest are pure funct
 
 * posture: each body's roll (:func:`pressurepose.pose.posture.roll_angle`) gives its class,
   'supine', 'left' / 'right' (the side lain on) or 'prone'; a frame with fewer than
-  ``min_contact_taxels`` taxels over ``contact_mmhg`` is 'empty' (nobody on the mat). A posture
-  held for less than ``min_posture_s`` is a movement, not a posture: it joins the posture before it.
-  A turn is a change between two lying postures (an 'empty' spell between them is passed over).
+  ``min_contact_taxels`` taxels over ``contact_mmhg`` is 'empty' (nobody on the mat), and a frame
+  whose image does not look like a person lying on the mat (:mod:`pressurepose.net.plausibility`:
+  a person sitting, an object, sensor noise) is 'unclear': the network's body means nothing there.
+  A posture held for less than ``min_posture_s`` is a movement, not a posture: it joins the
+  posture before it. A turn is a change between two lying postures (an 'empty' or 'unclear' spell
+  between them is passed over).
 * per site and frame: peak, mean and share of the load (:func:`pressurepose.body.sites.site_stats`).
 * time above the threshold per site (default 32 mmHg, the capillary closing pressure most cited in
   the pressure-injury literature: Landis, Heart 15:209, 1930), its longest stretch, and an alert
@@ -47,6 +50,8 @@ CAPILLARY_CLOSING_MMHG = 32.0  # Landis 1930
 REPOSITION_S = 2 * 3600.0
 POSTURES = ("supine", "left", "prone", "right")  # in the order of pose.posture.POSTURES
 EMPTY = "empty"
+UNCLEAR = "unclear"  # a frame that does not look like a person lying on the mat
+NOT_LYING = (EMPTY, UNCLEAR)
 _CHUNK = 2048  # frames per block of the per-site statistics (bounded memory on a night of frames)
 
 
@@ -184,7 +189,8 @@ class Alert:
 class Timeline:
     """A recording read over time (see the module doc).
 
-    times_s (T,); posture (T,) str ('supine', 'left', 'right', 'prone' or 'empty', after the
+    times_s (T,); posture (T,) str ('supine', 'left', 'right', 'prone', 'empty' or 'unclear' (the
+    frames :attr:`doubtful` marks), after the
     movements shorter than ``min_posture_s`` are joined to the posture before them); roll_deg (T,)
     the body's roll (NaN on empty frames); estimated (T,) bool; peak_mmhg, mean_mmhg, share (T, S)
     per site of :data:`~pressurepose.body.sites.SITES`; turns; posture_s {posture: seconds};
@@ -337,7 +343,7 @@ def posture_runs(posture, durations, min_posture_s: float) -> list[tuple[str, in
     merged: list[list] = []
     for _, s, e in out:  # a run is named for the posture held longest in it (a whole short recording too)
         names = sorted(set(p[s:e].tolist()))
-        lab = max(names, key=lambda n: (d[s:e][p[s:e] == n].sum(), n != EMPTY))
+        lab = max(names, key=lambda n: (d[s:e][p[s:e] == n].sum(), n not in NOT_LYING))
         if merged and merged[-1][0] == lab:
             merged[-1][2] = e
         else:
@@ -350,8 +356,9 @@ def _wrap_deg(a: float) -> float:
 
 
 def find_turns(runs, roll_deg, times) -> list[Turn]:
-    """The turns between consecutive lying runs of different postures ('empty' runs passed over)."""
-    lying = [r for r in runs if r[0] != EMPTY]
+    """The turns between consecutive lying runs of different postures ('empty' and 'unclear' runs
+    passed over)."""
+    lying = [r for r in runs if r[0] not in NOT_LYING]
     out = []
     for (a, s0, e0), (b, s1, e1) in zip(lying, lying[1:]):
         if a == b:
@@ -440,12 +447,15 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
                          maps[np.maximum(w, 0)] if len(maps) else NO_SITE, NO_SITE).astype(np.int8)
         loads = site_stats(p[sl], taxel, mat)
         peak[sl], mean[sl], share[sl] = loads.peak_mmhg, loads.mean_mmhg, loads.share
-    runs = posture_runs(posture_names(roll_frame), dur, config.min_posture_s)
+    names = posture_names(roll_frame).astype(object)
+    if plausibility is not None:  # frames that carry a body but not a lying person's image
+        names[~plausibility.ok & np.isfinite(roll_frame)] = UNCLEAR
+    runs = posture_runs(names, dur, config.min_posture_s)
     posture = np.empty(len(t), dtype=object)
     for lab, s, e in runs:
         posture[s:e] = lab
     roll_deg = np.degrees(roll_frame)
-    posture_s = {k: 0.0 for k in (*POSTURES, EMPTY)}
+    posture_s = {k: 0.0 for k in (*POSTURES, *NOT_LYING)}
     for lab, s, e in runs:
         posture_s[lab] += float(dur[s:e].sum())
     above_s, longest, alerts = {}, {}, []

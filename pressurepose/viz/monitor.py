@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 
 from pressurepose.body.sites import SITES
-from pressurepose.eval.monitor import EMPTY, Timeline
+from pressurepose.eval.monitor import EMPTY, UNCLEAR, Timeline
 
 POSTURE_COLORS = {"supine": "tab:blue", "left": "tab:green", "prone": "tab:purple", "right": "tab:orange",
-                  EMPTY: "0.85"}
+                  EMPTY: "0.85", UNCLEAR: "0.55"}
 SHOWN_SITES = 6  # site lines drawn: those longest above the threshold, then the most loaded
 
 

@@ -89,14 +89,23 @@ def _night(schedule, fps=1.0, rng=None):
     return t, frames, np.array(roll)
 
 
-def _read(t, frames, roll, config):
+def _read(t, frames, roll, config, doubtful=None):
+    """The timeline of a :func:`_night`; ``doubtful`` (T,) bool: frames whose image the
+    plausibility check doubts (None: not checked)."""
     occupied = np.isfinite(roll)
     sel = FrameSelection(occupied=occupied, estimated=occupied.copy(),
                          ref=np.where(occupied, np.arange(len(t)), -1))
     maps = np.full((int(occupied.sum()), 8, 6), site_index("other"), np.int8)
     supine = np.abs(roll[occupied]) < np.radians(45)
     maps[supine, 4:7, 1:4] = site_index("sacrum")  # lying on the back, the sacrum is under rows 4-6
-    return timeline(t, frames, sel, roll[occupied], maps, MAT, config)
+    checked = None
+    if doubtful is not None:
+        from pressurepose.net.plausibility import Doubt, Plausibility, image_stats
+
+        checked = Plausibility(doubt=tuple(Doubt.TOO_SHORT if d else None for d in doubtful),
+                               reason=tuple("a person sitting" if d else "" for d in doubtful),
+                               stats=image_stats(frames, MAT))
+    return timeline(t, frames, sel, roll[occupied], maps, MAT, config, checked)
 
 
 def test_every_turn_of_a_known_schedule_is_found_and_no_other():
@@ -110,8 +119,24 @@ def test_every_turn_of_a_known_schedule_is_found_and_no_other():
     assert tl.turns[0].roll_change_deg == pytest.approx(85.0)
     assert tl.turns[3].roll_change_deg == pytest.approx(175 - (-80) - 360)
     assert tl.posture_s == pytest.approx({"supine": 3620.0, "left": 1780.0, "right": 3000.0, "prone": 1200.0,
-                                          "empty": 120.0})
+                                          "empty": 120.0, "unclear": 0.0})
     assert tl.posture[3005] == "supine" and tl.posture[3100] == "left" and np.isnan(tl.roll_deg[7850])
+
+
+def test_frames_unlike_a_person_lying_are_an_unclear_spell_that_turns_pass_over():
+    """Five minutes whose images the plausibility check doubts (a person sitting on the bed, say),
+    read by the network as lying on the left: 'unclear', not a posture; no turn through them back to
+    the same posture, one turn where the person lies otherwise after them."""
+    t, frames, roll = _night([(0, 600), (85, 300), (0, 600), (85, 300), (-90, 600)])
+    doubtful = np.zeros(len(t), bool)
+    doubtful[600:900] = doubtful[1500:1800] = True
+    tl = _read(t, frames, roll, MonitorConfig(), doubtful)
+    assert [(x.time_s, x.before, x.after) for x in tl.turns] == [(1800.0, "supine", "right")]
+    assert set(tl.posture[600:900]) == {"unclear"} and tl.posture[1000] == "supine"
+    assert tl.posture_s["unclear"] == pytest.approx(600.0) and tl.posture_s["left"] == 0.0
+    assert tl.doubtful.sum() == 600
+    unchecked = _read(t, frames, roll, MonitorConfig())  # without the check the network's 'left' stands
+    assert [x.after for x in unchecked.turns] == ["left", "supine", "left", "right"]
 
 
 def test_a_recording_with_nobody_on_the_mat_is_one_empty_spell():
