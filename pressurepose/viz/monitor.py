@@ -43,7 +43,7 @@ def night_figure(tl: Timeline):
         right = t[e] if e < len(t) else end
         ax.axvspan(t[s], right, color=POSTURE_COLORS.get(str(tl.posture[s]), "0.5"), lw=0)
     ax.set_yticks([])
-    ax.set_title(f"posture ({len(tl.turns)} turns; the network read {int(tl.estimated.sum())} of {len(tl)} frames)")
+    ax.set_title(f"posture ({len(tl.turns)} turn{'' if len(tl.turns) == 1 else 's'}; the network read {int(tl.estimated.sum())} of {len(tl)} frames)")
     ax.legend(handles=[Patch(color=c, label=p) for p, c in POSTURE_COLORS.items()
                        if p in set(tl.posture.tolist())], loc="upper right", ncol=5, fontsize=8)
     ax = axes[1]
