@@ -224,9 +224,7 @@ class Timeline:
         """(T,) bool: frames that carry a body read by the network (not empty) but whose image does
         not look like a person lying on the mat (noise, an object, a person sitting ...): their
         posture and body sites mean nothing. All False when the frames were not checked."""
-        if self.plausibility is None:
-            return np.zeros(len(self), dtype=bool)
-        return ~self.plausibility.ok & np.isfinite(self.roll_deg)
+        return doubtful_frames(self.plausibility, self.roll_deg)
 
     def summary(self) -> dict:
         """The timeline's findings as a strict-JSON-ready dict (no per-frame rows)."""
@@ -309,6 +307,13 @@ def _num(v, digits: int = 3):
     if isinstance(v, float):
         return round(v, digits) if math.isfinite(v) else None
     return v
+
+
+def doubtful_frames(plausibility: Plausibility | None, roll) -> np.ndarray:
+    """(T,) bool: frames with a body (finite ``roll`` (T,)) whose image ``plausibility`` doubts;
+    all False when the frames were not checked (None)."""
+    body = np.isfinite(np.asarray(roll, dtype=np.float64))
+    return body & ~plausibility.ok if plausibility is not None else np.zeros(len(body), dtype=bool)
 
 
 def posture_names(roll) -> np.ndarray:
@@ -448,8 +453,7 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
         loads = site_stats(p[sl], taxel, mat)
         peak[sl], mean[sl], share[sl] = loads.peak_mmhg, loads.mean_mmhg, loads.share
     names = posture_names(roll_frame).astype(object)
-    if plausibility is not None:  # frames that carry a body but not a lying person's image
-        names[~plausibility.ok & np.isfinite(roll_frame)] = UNCLEAR
+    names[doubtful_frames(plausibility, roll_frame)] = UNCLEAR  # a body, but not a lying person's image
     runs = posture_runs(names, dur, config.min_posture_s)
     posture = np.empty(len(t), dtype=object)
     for lab, s, e in runs:

@@ -23,12 +23,12 @@ only the values beyond (2.2 -> 2.5 cm). The limits are the settle's too
                    matches the public sampler's fuller capsules). A colliding pose is first moved
                    apart as little as frees it: only the colliding limbs' joints (hip, knee, ankle /
                    shoulder, elbow, wrist) turn, by Gauss-Newton steps on the capsules' summed
-                   overlap (each step undoes the linearised overlap with the least movement of
-                   the 24 joints and the least turn of the pose values, no joint moving
-                   more than ``SEPARATE_MAX_STEP_M`` a step), until the pairs
-                   lie ``SEPARATE_CLEARANCE_M`` apart; the move is then shortened to about the
-                   least part of it that frees the pose (halving the way back to the drawn pose,
-                   ``SEPARATE_HALVINGS`` times). Where that does not free it in ``SEPARATE_ITERATIONS`` steps (about 1 pose in 15),
+                   overlap (each step undoes the linearised overlap with the least movement of the
+                   24 joints and the least turn of the pose values, no joint moving more than
+                   ``SEPARATE_MAX_STEP_M`` a step), until the pairs lie ``SEPARATE_CLEARANCE_M``
+                   apart; the move is then shortened to about the least part of it that frees the
+                   pose (halving the way back to the drawn pose, ``SEPARATE_HALVINGS`` times).
+                   Where ``SEPARATE_ITERATIONS`` steps do not free it (about 1 pose in 15),
                    Gaussian nudges of the same joints are tried instead, ``SEPARATE_TRIES`` per
                    round with the sd growing by ``SEPARATE_STEP_DEG`` a round, each free one
                    shortened the same way and the one that moves the joints least kept;
@@ -96,7 +96,7 @@ from pressurepose.pose.samples import COUNTERS
 _COL = {name: i for i, name in enumerate(COUNTERS)}
 # separating a colliding pose: the least move (Gauss-Newton on the capsules' overlap) ...
 SEPARATE_ITERATIONS = 40
-SEPARATE_MAX_STEP_M = 0.02  # the fastest joint moves at most this far a step, so the steps follow the overlap's descent
+SEPARATE_MAX_STEP_M = 0.02  # m the fastest joint moves at most a step: the steps follow the overlap's descent
 SEPARATE_FD_RAD = 1e-5  # finite-difference step of the overlap's and the joints' derivatives
 SEPARATE_CLEARANCE_M = 1e-3  # the least move aims for the pairs this far apart (then shortened back)
 SEPARATE_DONE_M = 1e-6  # summed overlap (m) at which it is that far apart, less rounding
