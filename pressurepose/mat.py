@@ -121,6 +121,17 @@ def get_mat(name: str) -> MatSpec:
     return MATS[key]
 
 
+def as_mat(mat: MatSpec | str, what: str = "mat") -> MatSpec:
+    """A :class:`MatSpec` as it is, or a preset by name (:func:`get_mat`); BadInput naming ``what``
+    for anything else."""
+    if isinstance(mat, MatSpec):
+        return mat
+    if isinstance(mat, str):
+        return get_mat(mat)
+    raise BadInput(f"{what} is a {type(mat).__name__}; expected a MatSpec or a preset name "
+                   f"({', '.join(sorted(MATS))})")
+
+
 def custom_mat(rows: int, cols: int, pitch_row_m: float, pitch_col_m: float | None = None,
                max_mmhg: float = 100.0, name: str = "custom") -> MatSpec:
     """Any grid: ``rows`` along the bed at ``pitch_row_m``, ``cols`` across at ``pitch_col_m``

@@ -81,3 +81,22 @@ def test_python_m_runs_the_command(module):
     done = subprocess.run([sys.executable, "-m", module, "info", "--help"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert "usage:" in done.stdout and "info" in done.stdout
+
+
+def test_train_help_names_each_default_that_is_not_the_papers():
+    """`train` says its defaults are the paper's; those that differ from TrainConfig's (the paper's) are named."""
+    import argparse
+    import dataclasses
+
+    from pressurepose.cli.net import add_train_arguments
+    from pressurepose.net.train_config import TrainConfig
+
+    p = argparse.ArgumentParser()
+    add_train_arguments(p)
+    args = vars(p.parse_args(["--data", "d", "--out", "o"]))
+    paper = dataclasses.asdict(TrainConfig())
+    differ = {k: v for k, v in args.items() if k in paper and v != paper[k]}
+    differ.update({k: v for k, v in args.items() if k + "_mmhg" in paper and v != paper[k + "_mmhg"]})
+    assert differ == {"val_fraction": 0.05, "contact_floor": 5.0}
+    text = " ".join(p.description.split())
+    assert "but for the contact floor (5 mmHg) and a 5 % validation share" in text

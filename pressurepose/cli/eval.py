@@ -56,9 +56,6 @@ def run_evaluate(args) -> int:
     net = resolve_model(args.model, body_specs(args))
     net = net.to(device)
     data = load_dataset(args.data, limit=args.limit)
-    if data.grid.shape != net.config.grid.shape:
-        raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
-                       f"({net.config.grid.rows} x {net.config.grid.cols})")
     result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
     table = format_table(result["summary"]) + "\n\n" + EVALUATE_LEGEND
     print(f"{len(data)} samples from {args.data}\n\n{table}")

@@ -182,7 +182,11 @@ def to_mmhg(images, mat: MatSpec, weight_kg=None, gain: float | None = None) -> 
         raise BadInput(f"body weights {w[~(np.isfinite(w) & (w > 0))][:3]} are not positive kg")
     total = p.reshape(len(p), -1).sum(1)
     if np.any(total <= 0):
-        raise BadInput(f"image {int(np.argmax(total <= 0))} carries no load; cannot normalise it by weight")
+        blank = np.flatnonzero(total <= 0)
+        raise BadInput(f"{len(blank)} of {len(p)} images carry no load ({', '.join(map(str, blank[:10].tolist()))}"
+                       f"{' ...' if len(blank) > 10 else ''}, counted from 0: every reading 0 once the baseline is "
+                       f"removed, nobody on the mat), so no weight can set their load; leave them out, or give the "
+                       f"mat's calibration gain instead of the weight")
     scale = w * G / (total * mat.taxel_area_m2) / MMHG_PA
     return p * scale[:, None, None]
 

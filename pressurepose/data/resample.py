@@ -4,8 +4,8 @@ Each source taxel's force is spread evenly over its cell; a destination taxel re
 the part of every source cell it overlaps (area weighting). The weights separate into a row factor
 and a column factor, so a batch is two small matrix products. The total force is kept exactly when
 the destination covers the source; force falling outside the destination is lost, as it would be
-on a smaller real mat. Grids are :class:`pressurepose.mat.MatSpec` (``get_mat(name)`` for
-presets, ``custom_mat`` for any other).
+on a smaller real mat. Grids are :class:`pressurepose.mat.MatSpec` (``custom_mat`` for any grid)
+or preset names (``"fsa_softflex_2048"``, :data:`pressurepose.mat.MATS`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from pressurepose.errors import BadInput
-from pressurepose.mat import MatSpec
+from pressurepose.mat import MatSpec, as_mat
 
 MMHG_PA = 133.322  # pascals per mmHg
 
@@ -28,12 +28,13 @@ def _overlap_weights(n_src: int, pitch_src: float, off_src: float,
     return np.clip(hi - lo, 0.0, None) / pitch_src
 
 
-def resample_weights(src: MatSpec, dst: MatSpec, align: str = "center") -> tuple[np.ndarray, np.ndarray]:
+def resample_weights(src: MatSpec | str, dst: MatSpec | str, align: str = "center") -> tuple[np.ndarray, np.ndarray]:
     """Row weights (dst.rows, src.rows) and column weights (dst.cols, src.cols).
 
     align: ``"center"`` puts both mats' centres together (two mats on the same bed), ``"corner"``
     puts their head-end corners together.
     """
+    src, dst = as_mat(src, "src (the source mat)"), as_mat(dst, "dst (the destination mat)")
     if align == "center":
         oy, ox = (dst.length_m - src.length_m) / 2, (dst.width_m - src.width_m) / 2
     elif align == "corner":
@@ -57,19 +58,22 @@ def _check_images(images: np.ndarray, grid: MatSpec, what: str) -> np.ndarray:
     return arr
 
 
-def resample_force(force: np.ndarray, src: MatSpec, dst: MatSpec, align: str = "center") -> np.ndarray:
+def resample_force(force: np.ndarray, src: MatSpec | str, dst: MatSpec | str, align: str = "center") -> np.ndarray:
     """Per-taxel forces (..., src.rows, src.cols) N -> (..., dst.rows, dst.cols) N, area-weighted.
 
     The sum over the destination equals the source sum minus the force outside the destination.
     """
+    src = as_mat(src, "src (the source mat)")
     f = _check_images(force, src, "force image")
     wr, wc = resample_weights(src, dst, align)
     return np.einsum("rs,...sc,dc->...rd", wr, f, wc)
 
 
-def resample_pressure(pressure: np.ndarray, src: MatSpec, dst: MatSpec, align: str = "center") -> np.ndarray:
+def resample_pressure(pressure: np.ndarray, src: MatSpec | str, dst: MatSpec | str,
+                      align: str = "center") -> np.ndarray:
     """Pressure images (..., src.rows, src.cols) -> (..., dst.rows, dst.cols) in the same unit,
     resampled as forces so that the total force (pressure x taxel area) is kept."""
+    src, dst = as_mat(src, "src (the source mat)"), as_mat(dst, "dst (the destination mat)")
     p = _check_images(pressure, src, "pressure image")
     return resample_force(p * src.taxel_area_m2, src, dst, align) / dst.taxel_area_m2
 

@@ -7,12 +7,15 @@ read flatter than they lie (:func:`roll_errors`)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import torch
 
 from pressurepose.errors import BadInput, require_whole
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
+from pressurepose.net.data import LoadedData, load_dataset
 from pressurepose.net.fit import FitConfig, fit_config
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
@@ -40,11 +43,15 @@ def _layer_forward(net: PressureNet, gender: int):
 
 
 @torch.no_grad()
-def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = False, mirror: bool = False,
-             fit: bool | FitConfig = False) -> dict:
-    """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data`` (a
-    :class:`pressurepose.net.data.LoadedData`), plus the summary (:func:`summarise`).
+def evaluate(net: PressureNet | str | Path | None, data: LoadedData | str | Path, batch_size: int = 64,
+             progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
+    """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data``, plus the summary
+    (:func:`summarise`): ``{"errors": {name: (N,) array}, "summary": {...}}``.
 
+    net: a PressureNet, a model path or None (the shipped model), as
+    :func:`pressurepose.net.infer.estimate`'s ``model``. data: a
+    :class:`pressurepose.net.data.LoadedData` or what :func:`~pressurepose.net.data.load_dataset`
+    reads (a dataset, a folder of datasets of one split, a training pack), on the model's mat.
     Vertex errors compare with the true bodies posed by the network's own body layer (same
     topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
     mirror: average each estimate with the network's reading of the mirrored image
@@ -53,11 +60,16 @@ def evaluate(net: PressureNet, data, batch_size: int = 64, progress: bool = Fals
     """
     from tqdm import tqdm
 
-    from pressurepose.net.infer import read_batch
+    from pressurepose.net.infer import read_batch, resolve_model
 
     require_whole("batch size", batch_size, 1)
+    net = resolve_model(net)
+    data = data if isinstance(data, LoadedData) else load_dataset(data)
     if len(data) == 0:
         raise BadInput("no samples to evaluate")
+    if data.grid.shape != net.config.grid.shape:
+        raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
+                       f"({net.config.grid.rows} x {net.config.grid.cols})")
     fitting = fit_config(fit)
     net.eval()
     device = next(net.parameters()).device

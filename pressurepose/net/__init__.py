@@ -11,5 +11,7 @@ Modules (import from them; this package stays light):
 * ``model``: ``PressureNet`` = Mod1 + Mod2 with the gendered body layer
 * ``losses``: L1 and L2; ``train``: the training loop; ``checkpoint``: safe saving/loading
 * ``infer``: ``estimate(pressure, gender, model) -> Estimate``; ``mirror``: averaging an image's reading
-  with its mirror's; ``data``: generated datasets in memory
+  with its mirror's; ``fit``: moving an estimated body onto its image's print; ``plausibility``: whether
+  an image looks like a person lying on the mat; ``data``: generated datasets and training packs in
+  memory (``load_dataset``)
 """

@@ -385,7 +385,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
              what: str | None = None) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
-    pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch); or,
+    pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch, or a
+    file of them, as ``infer`` without ``--mat`` reads it: :func:`load_pressure`); or,
     with ``mat``, a real recording on any mat: an array or a file (.npy, .csv, a PMD-style .txt of
     one frame a line), read by :func:`pressurepose.data.readers.recording.read_recording` with
     ``units`` ('raw' or 'mmHg'), ``weight_kg`` or ``gain`` (raw readings to mmHg) and ``head_row``
@@ -431,6 +432,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         if units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
             raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
                            "too (mat=preset name or mat.json)")
+        if isinstance(pressure, (str, Path)):
+            what = what or str(pressure)
+            pressure = load_pressure(pressure)
         what = what or "pressure"
         arr = check_pressure(pressure, net.config.grid.shape, what=what)
         notes = None

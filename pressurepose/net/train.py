@@ -45,6 +45,7 @@ from pressurepose.errors import BadInput, record_difference
 from pressurepose.files import atomic_write, write_json_atomic, write_text_atomic
 from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
+from pressurepose.net.data import LoadedData
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import add_noise
@@ -84,7 +85,9 @@ def as_training_data(data: Mapping, grid: MatSpec) -> dict[str, torch.Tensor]:
         t = torch.as_tensor(np.asarray(data[k]) if not isinstance(data[k], torch.Tensor) else data[k]).float()
         want = (n, *grid.shape) if k == "pressure" else (n, *shp)
         if tuple(t.shape) != want:
-            raise BadInput(f"training data {k} has shape {tuple(t.shape)}; expected {want}")
+            mat = (f" on the {grid.name} mat; for images of another mat give train() that mat (grid=) or the "
+                   f"LoadedData of load_dataset, which carries it") if k == "pressure" else ""
+            raise BadInput(f"training data {k} has shape {tuple(t.shape)}; expected {want}{mat}")
         if not bool(torch.isfinite(t).all()):
             raise BadInput(f"training data {k} contains NaN or infinite values")
         out[k] = t
@@ -275,14 +278,22 @@ def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: 
     return net.run_mod2(x1, gender, out1, maps=maps, vertices=False)
 
 
-def train(data: Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
+def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
           bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatSpec | None = None,
           progress: bool = False) -> TrainResult:
     """Train Mod1 then Mod2 on ``data``; write logs, resumable state and the model into ``out_dir``.
 
-    bodies: (female, male) BodyModels (default the shipped ones). grid: the mat (default the
-    BodiTrak BT-3510); the images in ``data`` must be on it.
+    data: a :class:`~pressurepose.net.data.LoadedData` (:func:`~pressurepose.net.data.load_dataset`:
+    a dataset or a training pack, on its own mat) or a mapping of arrays (the module docstring).
+    bodies: (female, male) BodyModels (default the shipped ones). grid: the mat the images are on
+    (default: a LoadedData's own, else the BodiTrak BT-3510).
     """
+    if isinstance(data, LoadedData):
+        if grid is not None and grid.shape != data.grid.shape:
+            raise BadInput(f"grid is {grid.rows} x {grid.cols} but the data's mat ({data.mat}) is "
+                           f"{data.grid.rows} x {data.grid.cols}; leave grid out to train on the data's mat")
+        grid = data.grid if grid is None else grid
+        data = data.tensors
     if grid is None:
         from pressurepose.mat import get_mat
 

@@ -183,6 +183,18 @@ def test_resample_identity_known_values_and_loss_outside():
         resample_pressure(-np.ones((56, 40)), m, m)
 
 
+def test_resample_takes_mats_by_preset_name():
+    """As docs/data.md writes it: resample_pressure(images, src_mat, dst_mat) with preset names or MatSpecs."""
+    x = np.random.default_rng(0).uniform(0, 50, (2, 64, 32))
+    by_name = resample_pressure(x, "fsa_softflex_2048", "boditrak_bt3510")
+    np.testing.assert_array_equal(by_name, resample_pressure(x, get_mat("fsa_softflex_2048"), get_mat("boditrak_bt3510")))
+    assert resample_force(x, "fsa_softflex_2048", "tip").shape == (2, 56, 40)
+    with pytest.raises(BadInput, match="bodytrak"):
+        resample_pressure(x, "fsa_softflex_2048", "bodytrak")
+    with pytest.raises(BadInput, match=r"src \(the source mat\) is a tuple; expected a MatSpec or a preset name"):
+        resample_pressure(x, (64, 32), "boditrak_bt3510")
+
+
 def test_convert_verb_both_ways(tmp_path, capsys):
     from pressurepose.body.smpl_io import save_body_arrays
     from pressurepose.cli import main

@@ -61,6 +61,16 @@ def test_weight_normalisation_gives_the_body_weight_as_total_force():
         rp.to_mmhg(imgs, FSA)
 
 
+def test_blank_images_refused_by_weight_normalisation_are_named_with_a_way_out():
+    """A recording array with blank frames (nobody on the mat) cannot be weight-normalised: the message
+    names them all and says what to do."""
+    imgs = np.stack([np.zeros((64, 32)), body_image(64, 32), np.zeros((64, 32))])
+    with pytest.raises(BadInput, match=r"2 of 3 images carry no load \(0, 2, counted from 0.*leave them out, or "
+                                       r"give the mat's calibration gain"):
+        rp.to_mmhg(imgs, FSA, weight_kg=70.0)
+    assert rp.to_mmhg(imgs, FSA, gain=0.5)[0].max() == 0  # a gain reads them as empty
+
+
 def test_resampling_onto_the_model_mat_keeps_the_force_and_centres():
     src = custom_mat(64, 32, 0.025)  # a smaller mat: it lies wholly inside the BodiTrak's
     img = body_image(64, 32)[None]

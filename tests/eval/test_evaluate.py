@@ -74,6 +74,28 @@ def test_evaluate_matches_direct_computation(setup):
     assert "turn bias (deg)" in table
 
 
+def test_evaluate_takes_a_model_path_and_a_dataset_path(setup):
+    """As estimate() does: a model file or the shipped model, and a dataset folder, not only loaded ones."""
+    root, _, path = setup
+    from pressurepose.net.infer import resolve_model
+
+    by_path = evaluate(path, root / "data")
+    loaded = evaluate(resolve_model(path), load_dataset(root / "data"))
+    np.testing.assert_array_equal(by_path["errors"]["mod2_mpjpe"], loaded["errors"]["mod2_mpjpe"])
+    assert evaluate(None, root / "data")["summary"]["all"]["count"] == 4  # the shipped model
+
+
+def test_evaluate_refuses_a_dataset_of_another_mat(setup):
+    from pressurepose.mat import custom_mat
+    from pressurepose.net.data import LoadedData
+
+    root, data, path = setup
+    other = custom_mat(rows=64, cols=32, pitch_row_m=0.028)
+    tensors = dict(data, pressure=torch.zeros(4, 64, 32), partition=torch.zeros(4, dtype=torch.long))
+    with pytest.raises(BadInput, match=r"dataset's mat \(fsa, 64 x 32\) is not the model's \(64 x 27\)"):
+        evaluate(path, LoadedData(tensors, other, "fsa", ("general_supine",)))
+
+
 def _rolled(deg: float) -> np.ndarray:
     """(72,) a zero pose with the root rolled by ``deg`` about the body's long axis."""
     from pressurepose.pose.root import root_axis_angle, world_rotation

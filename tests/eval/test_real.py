@@ -133,6 +133,23 @@ def test_raw_images_reach_the_model_carrying_the_body_weight(tmp_path):
     assert res.summary["n_estimates"] == 2 and res.skipped == {"inclined_bed": 0, "weak_recording": 0}
 
 
+def test_evaluate_real_takes_the_model_as_estimate_does(tmp_path):
+    """None (the shipped model) or a model file, as estimate()'s model: no loading by hand first."""
+    from pressurepose.data.readers.real import read_real
+    from pressurepose.eval.real import evaluate_real
+    from pressurepose.net.infer import DEFAULT_MODEL, resolve_model
+    from tests.data.realfolders import body_image, write_labelled
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    imgs = np.stack([body_image(64, 27, seed=i, scale=400) for i in range(2)])
+    real = read_real(write_labelled(tmp_path / "raw", imgs, ["supine", "right"],
+                                    {"preset": "boditrak_bt3510", "units": "raw"}, weights=[60, 90], genders=["f", "m"]))
+    loaded = evaluate_real(real, resolve_model(None))
+    for net in (None, DEFAULT_MODEL):
+        np.testing.assert_array_equal(evaluate_real(real, net).estimate.joints, loaded.estimate.joints)
+
+
 def test_wedge_postures_are_summarised_apart_as_well():
     """summarise() keeps every image in its headline and adds the scores without the wedge postures."""
     from pressurepose.eval.real import format_real_table, is_wedge, summarise

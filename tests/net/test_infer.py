@@ -41,6 +41,18 @@ def test_estimate_one_image_and_a_batch(model_path):
     np.testing.assert_allclose(batch.joints[0], one.joints[0], atol=1e-5)
 
 
+def test_estimate_reads_a_file_of_images_on_the_models_mat(model_path, tmp_path):
+    """A path without a mat is read as infer reads it without --mat (.npy, .csv, .npz, .h5), not refused
+    as text."""
+    data = toy_dataset(2, grid=GRID)
+    np.save(tmp_path / "images.npy", data["pressure"].numpy())
+    from_file = estimate(tmp_path / "images.npy", "f", model=model_path)
+    np.testing.assert_array_equal(from_file.joints, estimate(data["pressure"], "f", model=model_path).joints)
+    assert len(estimate(str(tmp_path / "images.npy"), "m", model=model_path)) == 2
+    with pytest.raises(BadInput, match="missing.npy"):
+        estimate(tmp_path / "missing.npy", "f", model=model_path)
+
+
 def test_estimate_splits_each_image_over_the_body_sites_under_its_body(model_path, tmp_path):
     from pressurepose.body.sites import NO_SITE, SITES, site_loads, vertex_sites
 

@@ -90,6 +90,23 @@ def test_bad_training_data_is_refused(tmp_path):
         TrainConfig(loss_sigmas="other")
 
 
+def test_trains_on_what_load_dataset_returns_on_its_own_mat(tmp_path):
+    """train() takes the LoadedData of load_dataset as it is and trains on its mat, not the default one."""
+    from pressurepose.net.data import LoadedData
+
+    tensors = dict(toy_dataset(4, seed=2, grid=GRID), partition=torch.zeros(4, dtype=torch.long))
+    loaded = LoadedData(tensors, GRID, "custom", ("general",))
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=1, epochs_mod2=0, batch_size=4)
+    result = train(loaded, tmp_path / "run", cfg, bodies=(body, body))
+    net, _ = load_model(result.model_path, bodies=(body, body))
+    assert net.config.grid.shape == GRID.shape
+    with pytest.raises(BadInput, match="data's mat"):
+        train(loaded, tmp_path / "other", cfg, bodies=(body, body), grid=custom_mat(rows=8, cols=8, pitch_row_m=0.1))
+    with pytest.raises(BadInput, match="LoadedData of load_dataset"):  # images of another mat, default grid
+        train(tensors, tmp_path / "plain", cfg, bodies=(body, body))
+
+
 def test_tensorboard_log_matches_the_csv(tmp_path):
     pytest.importorskip("tensorboard")
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
