@@ -193,6 +193,10 @@ def test_monitor_change_gap_and_head_row(tmp_path):
     assert run("refused", "night.npy") == (None, None)  # a 91 s gap is past the default --max-gap-s 60
     plain, read = run("plain", "night.npy", "--max-gap-s", "120")
     assert plain["settings"]["max_gap_s"] == 120 and plain["frames_estimated"] < len(frames) / 2
+    assert (plain["settings"]["threshold_mmhg"], plain["settings"]["relief_s"]) == (32.0, 60.0)
+    low, _ = run("low", "night.npy", "--max-gap-s", "120", "--threshold-mmhg", "20", "--relief-s", "5")
+    assert (low["settings"]["threshold_mmhg"], low["settings"]["relief_s"]) == (20.0, 5.0)
+    assert sum(low["above_threshold_s"].values()) > sum(plain["above_threshold_s"].values())
     assert {"supine", "left"} <= {posture for posture, _ in read}
     every, _ = run("every", "night.npy", "--max-gap-s", "120", "--change", "0")
     assert every["settings"]["change"] == 0 and every["frames_estimated"] == len(frames)
