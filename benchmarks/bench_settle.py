@@ -251,7 +251,7 @@ def main(argv=None) -> int:
         f"{gender} model; {args.count} bodies per partition from the pose sampler (seed {args.seed}); default "
         f"bed ({bed.mat.name}, k_A {bed.stiffness_n_m3:.3g} N/m^3, G {bed.coupling_n_m:.3g} N/m).", "",
         f"Default config: {cells.ny} x {cells.nx} cells of {1000 * cells.dx:.1f} x {1000 * cells.dy:.1f} mm, "
-        f"{default.cone} friction cones, dt {default.timestep_s} s ({default.coarse_factor:g}x from "
+        f"elliptic friction cones, dt {default.timestep_s} s ({default.coarse_factor:g}x from "
         f"{default.coarse_after_steps} steps after the pelvis touches), rest "
         f"after {default.rest_hold_steps} steps under 0.05 m/s and 0.5 m/s^2. The foundation modulus is fitted so "
         f"that five body-part capsules sink as deep as in the bed's press model (appendix A.5): "

@@ -16,7 +16,7 @@ at ``--real``::
 
     python tools/train_shipped_model.py --work runs/shipped                  # data, training, evaluation
     python tools/train_shipped_model.py --work runs/shipped --install        # ... then ship the model
-    python tools/train_shipped_model.py --work runs/pilot --scale 0.1        # a small pilot
+    python tools/train_shipped_model.py --work runs/small --scale 0.1        # a tenth of the data, a quick trial
     python tools/train_shipped_model.py --work runs/shipped --data-only      # data on CPU machines, then
     pressurepose pack runs/shipped/data/train --out train.npz                # one file to copy, and on a GPU:
     python tools/train_shipped_model.py --work runs/gpu --train-data train.npz --ship-to runs/gpu/shipped

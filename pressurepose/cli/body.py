@@ -14,7 +14,8 @@ def add_view_body_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default=None, help="path of an SMPL-format .npz or SMPL .pkl (overrides --gender)")
     p.add_argument("--betas", type=float, nargs="*", default=[], help="shape coefficients (up to 10) [all 0]")
     p.add_argument("--pose", default=None, help=".npy file with 72 SMPL axis-angle values [T-pose]")
-    p.add_argument("--no-capsules", action="store_true", help="do not overlay the capsule approximation")
+    p.add_argument("--no-capsules", action="store_true",
+                   help="draw the mesh alone, without the capsules the settle simulates it with (default: overlaid)")
     p.add_argument("--out", default="body.png", help="output PNG [body.png]")
 
 

@@ -17,8 +17,9 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
                    help="dataset directory (or a folder of datasets) from `generate`, or a training pack (.npz) from `pack`")
     p.add_argument("--out", default=None, help="folder for report.md and report.json (default: print only)")
     p.add_argument("--batch-size", type=int, default=64, help="images per forward pass (default 64)")
-    p.add_argument("--limit", type=int, default=None, help="evaluate only the first N samples")
-    p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
+    p.add_argument("--limit", type=int, default=None,
+                   help="evaluate only the first N samples (default: all; a quick look at a large set)")
+    p.add_argument("--device", default="auto", help="auto (CUDA if available, default), cpu, cuda ...")
     from pressurepose.cli.net import add_body_arguments, add_fit_argument, add_mirror_argument
 
     add_mirror_argument(p)
@@ -106,7 +107,7 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
                    help="input taxels above this pressure count as contact for the IoU (default: the model's "
                         "contact floor, what its contact channel means; 2 mmHg for a model without one)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default 32)")
-    p.add_argument("--device", default="auto", help="auto (CUDA if available), cpu, cuda ...")
+    p.add_argument("--device", default="auto", help="auto (CUDA if available, default), cpu, cuda ...")
     from pressurepose.cli.net import add_fit_argument, add_mirror_argument
 
     add_mirror_argument(p)

@@ -22,20 +22,27 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--epochs-mod2", type=int, default=d.epochs_mod2, help=f"epochs for Mod2 (default {d.epochs_mod2})")
     p.add_argument("--batch-size", type=int, default=d.batch_size, help=f"images per training step (default {d.batch_size})")
     p.add_argument("--lr", type=float, default=d.lr, help=f"Adam learning rate (default {d.lr})")
-    p.add_argument("--lr-mod2", type=float, default=None, help="Mod2's learning rate (default: --lr)")
+    p.add_argument("--lr-mod2", type=float, default=None, help="Mod2's learning rate (default: --lr, as the paper; the shipped recipe trains Mod2 at a fifth of Mod1's "
+                        "rate, docs/training.md)")
     p.add_argument("--lr-schedule", choices=("constant", "cosine"), default=d.lr_schedule,
-                   help="constant (the paper) or cosine: each stage's rate falls to 0 over its epochs")
-    p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"Adam's L2 weight decay (default {d.weight_decay:g})")
+                   help="constant (the paper's, default) or cosine: each stage's rate falls from its --lr to 0 over its "
+                        "epochs (the shipped recipe's, with a larger --lr and fewer epochs)")
+    p.add_argument("--weight-decay", type=float, default=d.weight_decay, help=f"Adam's L2 weight decay (default {d.weight_decay:g}, the paper's; 0 turns it off)")
     p.add_argument("--no-noise", action="store_true", help="train without the noise model (one of the paper's ablations, table 2)")
     p.add_argument("--no-pmr", action="store_true", help="no PMR maps into Mod2 and L1 for both (the paper's PMR ablation)")
     p.add_argument("--no-edges-contact", action="store_true", help="drop the Sobel and contact channels (the paper's input ablation)")
-    p.add_argument("--gender-input", action="store_true", help="also feed the gender flag to the CNN (not in the paper)")
+    p.add_argument("--gender-input", action="store_true", help="also feed the gender flag to the CNN (not in the paper; the shipped "
+                                                              "model's: real stature error 9.5 -> 8.3 cm, docs/training.md)")
     p.add_argument("--loss-sigmas", choices=("paper", "data"), default=d.loss_sigmas,
-                   help="sigma_s and sigma_beta: the paper's values or from the training set (default paper)")
-    p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05)")
+                   help="the loss's normalising constants for joints and shape (sigma_s, sigma_beta): the paper's "
+                        "values (paper, default) or the training set's spread (data: for training data whose "
+                        "bodies vary unlike the paper's)")
+    p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05; 0 trains on every sample and validates "
+                        "on none)")
     p.add_argument("--seed", type=seed_arg, default=d.seed, help=f"seed of the split, shuffling, noise, dropout and init (default {d.seed})")
-    p.add_argument("--device", default=d.device, help="auto (CUDA if available), cpu, cuda, cuda:1 ...")
-    p.add_argument("--no-amp", action="store_true", help="no mixed precision on CUDA")
+    p.add_argument("--device", default=d.device, help="auto (CUDA if available, default), cpu, cuda, cuda:1 ...")
+    p.add_argument("--no-amp", action="store_true", help="float32 throughout on CUDA (default: the CNNs in mixed precision, faster); to rule half "
+                        "precision out when a GPU run differs from a CPU one")
     p.add_argument("--cpu-amp", action="store_true", help="bfloat16 autocast for the CNNs on the CPU: 1.5-1.6x faster "
                                                          "on some CPUs with bf16 instructions, 0.7-0.9x on others, "
                                                          "about 10x slower where there are none (look for bf16 in "
@@ -51,7 +58,8 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--turn-loss", type=float, default=d.turn_loss, metavar="W",
                    help="weight of a loss on the body's turn about its long axis (the hips' and shoulders' "
                         "left-right axes, apart from the joint distances; not in the paper) [0]")
-    p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1)")
+    p.add_argument("--save-every", type=int, default=d.save_every, help="epochs between resumable states (default 1: an interrupted run repeats at most the epoch it "
+                        "was in; each stage's last epoch is always saved)")
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples (default: all)")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
     p.add_argument("--male", default="male", help="male body model: 'male' (shipped) or an SMPL-format file")

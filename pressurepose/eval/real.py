@@ -47,8 +47,8 @@ GRAVITY = 9.80665
 
 @dataclass(frozen=True)
 class RealEvalConfig:
-    """gender: body model for images without a recorded gender ('f', 'm' or 'both'); force: use it
-    even where one is recorded. contact_mmhg: input taxels above it are contact for the IoU; None:
+    """gender: body model for images without a recorded gender ('f', 'm' or 'both'); force_gender: use
+    it even where one is recorded. contact_mmhg: input taxels above it are contact for the IoU; None:
     the model's own contact floor (what its contact channel means), or 2 mmHg for a model without
     one (the paper's, which counts any reading). weak_fraction: images whose
     raw total is below this fraction of their subject's median are left out. batch_size: images

@@ -25,7 +25,10 @@ CNN_VARIANTS: dict[str, tuple[int, int, int, int]] = {
 
 @dataclass(frozen=True)
 class NoiseConfig:
-    """Parameters of :func:`pressurepose.net.noise.add_noise` (units: mmHg for pressures, taxels for blur)."""
+    """Parameters of :func:`pressurepose.net.noise.add_noise` (units: mmHg for pressures, taxels for
+    blur; the paper's training noise, section 5.2 and its public code): mult_std, sd of one gain drawn
+    per image about 1; add_std, sd of the noise added to each loaded taxel; clip_max, the sensor's
+    saturation; blur_mean, blur_std, the Gaussian blur's sigma drawn per image."""
 
     mult_std: float = 0.2
     add_std: float = 14.0
@@ -38,6 +41,11 @@ class NoiseConfig:
 class TrainConfig:
     """Training options; the defaults are the paper's (appendix B.3, section 5.2).
 
+    epochs_mod1, epochs_mod2: epochs of each stage; batch_size: images per step; lr, weight_decay:
+    Adam's; seed: of the validation split, shuffling, noise, dropout and initialisation. noise_config:
+    the training noise (:class:`NoiseConfig`). upsample, blur_sigma: the input's upsampling factor and
+    Gaussian blur in taxels (``InputConfig``; the paper's 2 and 0.5). gender_input: the CNN also
+    reads the gender flag (not in the paper).
     loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
     training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
     out for the per-epoch validation (seeded split). gain: output gain (:mod:`.outputs`).

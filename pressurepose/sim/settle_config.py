@@ -31,7 +31,6 @@ def hanging(points: np.ndarray, bounds: tuple[float, float, float, float], depth
     x0, x1, y0, y1 = bounds
     beyond = (points[:, 0] < x0) | (points[:, 0] > x1) | (points[:, 1] < y0) | (points[:, 1] > y1)
     return bool(np.any(beyond & (points[:, 2] < -depth_m)))
-CONES = ("pyramidal", "elliptic")  # MuJoCo's friction cones
 # the settles a dataset can be made with (``GenerationConfig.settle``, ``--settle``; :func:`settle_preset`)
 SETTLES: tuple[str, ...] = ("relaxed", "paper")
 
@@ -54,7 +53,6 @@ class SettleConfig:
         :func:`~pressurepose.sim.settle_stiffness.settle_stiffness` keeps it on disk).
         coupling: tie neighbouring cells with the bed's shear stiffness.
     self_collision: limbs (forearms, hands, calves, feet) collide with the other capsules.
-    cone: MuJoCo's friction cone, 'pyramidal' or 'elliptic'.
     limit_stiffness_factor: ball-joint limit penalty, multiple of the joint stiffness.
     iterations, ls_iterations, tolerance: Newton solver settings.
     max_speed_m_s: faster capsule points mean the simulation blew up; fall_depth_m: a pelvis this far
@@ -87,7 +85,6 @@ class SettleConfig:
     coupling: bool = True
     self_collision: bool = True
     limit_stiffness_factor: float = LIMIT_STIFFNESS_FACTOR
-    cone: str = "elliptic"
     iterations: int = 50
     ls_iterations: int = 20
     tolerance: float = 1e-8
@@ -107,8 +104,6 @@ class SettleConfig:
         for name in ("timestep_s", "rest_speed_m_s", "rest_accel_m_s2", "tolerance", "max_speed_m_s",
                      "fall_depth_m", "limit_stiffness_factor"):
             require_positive(f"settle {name}", getattr(self, name))
-        if self.cone not in CONES:
-            raise BadInput(f"settle cone {self.cone!r} is not known; expected one of {', '.join(CONES)}")
         if self.spine_stiffness is not None:
             require_positive("settle spine_stiffness (N m/rad; None: the paper's)", self.spine_stiffness)
         require_between("settle coarse_factor (1: no coarse step)", self.coarse_factor, 1, 4)

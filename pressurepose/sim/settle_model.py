@@ -28,8 +28,6 @@ from pressurepose.sim.ragdoll import (
 )
 from pressurepose.sim.settle_config import SettleConfig
 
-_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
-
 
 def settle_cells(bed: BedSpec, config: SettleConfig, stiffness_n_m3: float | None = None) -> CellBed:
     """The cell bed ``config`` settles bodies on (``stiffness_n_m3`` overrides the config's)."""
@@ -41,7 +39,8 @@ def settle_cells(bed: BedSpec, config: SettleConfig, stiffness_n_m3: float | Non
 def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig, support: bool = False) -> mujoco.MjSpec:
     """The settle model as an MjSpec: the ragdoll first, then the cell bed, then with ``support`` a
     mocap body "support" holding a box (the wedge, sized and placed per body, colliding with the
-    body only); implicitfast integrator, Newton solver, ``config.cone`` friction cones."""
+    body only); implicitfast integrator, Newton solver, elliptic friction cones (:mod:`pressurepose.sim.settle`
+    says why)."""
     spec = mujoco.MjSpec()
     spec.modelname = "settle"
     spec.compiler.degree = False
@@ -49,7 +48,7 @@ def build_spec(params: RagdollParams, cells: CellBed, config: SettleConfig, supp
     o.timestep = config.timestep_s
     o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     o.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    o.cone = _CONES[config.cone]
+    o.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     o.iterations = config.iterations
     o.ls_iterations = config.ls_iterations
     o.tolerance = config.tolerance

@@ -82,7 +82,7 @@ def gallery_figure(result, count: int = 3):
     q_max = max(float(est.q[idx].max()), 1e-6)
     fig = plt.figure(figsize=(10, 5.2 * len(picks) + 0.6), layout="constrained")
     fig.suptitle("Best and worst estimates: " + RULE.replace(", then the stature", ",\nthen the stature"), fontsize=10)
-    for (kind, i), sub in zip(picks, fig.subfigures(len(picks), 1)):
+    for (kind, i), sub in zip(picks, fig.subfigures(len(picks), 1, squeeze=False)[:, 0]):
         sub.suptitle(_row_title(kind, rows, i), fontsize=9, fontweight="bold", ha="left", x=0.02)
         ax = sub.subplots(1, 3)
         im = ax[0].imshow(x[i], cmap="magma", interpolation="nearest", vmin=0, vmax=p_max)

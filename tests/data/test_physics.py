@@ -261,6 +261,6 @@ def test_the_provenance_records_every_setting_of_the_settle():
     assert sorted(record["settle"]) == sorted((
         "timestep_s", "max_steps", "zero_every", "rest_speed_m_s", "rest_accel_m_s2", "rest_hold_steps",
         "drop_clearance_m", "cell_m", "taxels_per_cell", "stiffness_n_m3", "coupling", "self_collision",
-        "limit_stiffness_factor", "cone", "iterations", "ls_iterations", "tolerance", "max_speed_m_s",
+        "limit_stiffness_factor", "iterations", "ls_iterations", "tolerance", "max_speed_m_s",
         "fall_depth_m", "self_collision_tol_m", "posture_check_steps", "relaxed_neck", "spine_stiffness",
         "coarse_factor", "coarse_after_steps"))

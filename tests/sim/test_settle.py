@@ -346,7 +346,7 @@ def test_bad_settle_inputs_are_rejected(body):
         settle(body, BETAS, pose[:69], t, "female", BED, FAST)
     with pytest.raises(BadInput):
         settle(body, BETAS, pose, np.array([0.0, np.nan, 0.0]), "female", BED, FAST)
-    for bad in ({"max_steps": 0}, {"rest_speed_m_s": -1.0}, {"cone": "round"}, {"timestep_s": float("nan")}):
+    for bad in ({"max_steps": 0}, {"rest_speed_m_s": -1.0}, {"timestep_s": float("nan")}):
         with pytest.raises(BadInput):
             SettleConfig(**bad)
 
