@@ -53,11 +53,12 @@ FORMAT_VERSION = 1
 REPAIR_HINT = ("rerun its generate command with --repair to set the manifest and its shards aside "
                "(renamed *.corrupt-<time>) and make the dataset again")
 _F32 = ("pressure", "force", "depth", "betas", "pose", "transl", "joints", "mass", "height")
-# sampler settings that some manifests record and SamplerConfig does not have, with the value under
-# which they changed nothing (max_limb_sink: an opt-in limb test, docs/not-adopted.md).
+# settings that some manifests' provenance records (by section) and the configs no longer have, with
+# the value that is now the only behaviour: max_limb_sink None (an opt-in limb test, off), cone
+# "elliptic" (MuJoCo's friction cones; pyramidal ones were not adopted: docs/not-adopted.md).
 # A manifest holding that value reads as if it did not name the setting, so its dataset resumes; any
-# other value stays in the record, and a resume is refused as made under other sampler constants.
-RETIRED_SAMPLER_SETTINGS = {"max_limb_sink": None}
+# other value stays in the record, and a resume is refused as made under other constants.
+RETIRED_SETTINGS = {"sampler": {"max_limb_sink": None}, "settle": {"cone": "elliptic"}}
 
 
 def shard_name(shard: int) -> str:
@@ -287,10 +288,10 @@ class Manifest:
         prov = raw.get("provenance", {})
         if not isinstance(prov, dict):
             raise BadInput(f"manifest {path}: 'provenance' is {type(prov).__name__}; expected an object. {REPAIR_HINT}")
-        sampler = prov.get("sampler")
-        if isinstance(sampler, dict):
-            prov = {**prov, "sampler": {k: v for k, v in sampler.items()
-                                        if not (k in RETIRED_SAMPLER_SETTINGS and v == RETIRED_SAMPLER_SETTINGS[k])}}
+        for section, retired in RETIRED_SETTINGS.items():
+            record = prov.get(section)
+            if isinstance(record, dict):
+                prov = {**prov, section: {k: v for k, v in record.items() if not (k in retired and v == retired[k])}}
         return cls(config=config, package_version=str(raw.get("package_version", "")), shards=shards,
                    created=str(raw.get("created", "")), complete=bool(raw.get("complete", False)), provenance=prov)
 

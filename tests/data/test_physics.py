@@ -109,6 +109,32 @@ def test_a_manifest_recording_the_retired_max_limb_sink_reads_and_resumes(tmp_pa
         open_output(tmp_path, config)
 
 
+def test_a_manifest_recording_the_retired_friction_cone_reads_and_resumes(tmp_path):
+    """Manifests made before the settle's friction cone stopped being a setting record it ('elliptic',
+    the only cone now). Such a manifest reads and its dataset resumes; one made with pyramidal cones is
+    refused, naming the setting."""
+    import json
+
+    from pressurepose.data.pipeline import open_output
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import MANIFEST, Manifest
+    from pressurepose.errors import BadInput
+
+    config = GenerationConfig(partition="general_supine", gender="f", count=2, seed=3)
+    open_output(tmp_path, config)
+    raw = json.loads((tmp_path / MANIFEST).read_text())
+    now = raw["provenance"]
+    assert "cone" not in now["settle"]
+    raw["provenance"] = {**now, "settle": {**now["settle"], "cone": "elliptic"}}
+    (tmp_path / MANIFEST).write_text(json.dumps(raw))
+    assert Manifest.load(tmp_path).provenance == now
+    assert open_output(tmp_path, config).provenance == now
+    raw["provenance"]["settle"]["cone"] = "pyramidal"
+    (tmp_path / MANIFEST).write_text(json.dumps(raw))
+    with pytest.raises(BadInput, match=r"settle.cone"):
+        open_output(tmp_path, config)
+
+
 def test_a_wedge_partitions_provenance_holds_the_wedges_constants(tmp_path, monkeypatch):
     from pressurepose.data import physics
     from pressurepose.data.schema import GenerationConfig
