@@ -111,8 +111,9 @@ def test_monitoring_python_runs(raw_frames):
     (block,) = python_blocks("docs/monitoring.md")
     space = {"raw": np.concatenate([np.zeros((1, 64, 32)), raw_frames, raw_frames])}  # nobody on the mat, then a body
     exec(block, space)
-    assert len(space["night"]) == 7 and space["frames"].shape == (7, 64, 27)
-    assert list(space["occupied"]) == [False] + [True] * 6
+    night = space["night"]
+    assert len(night) == 7 and not night.estimated[0] and night.estimated[1]  # nobody, then a body the network read
+    assert set(night.posture) == {"supine"}  # the one empty second joins the posture after it
 
 
 def test_physics_python_runs():

@@ -36,6 +36,7 @@ import csv
 import dataclasses
 import io
 import math
+from pathlib import Path
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -483,12 +484,18 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
 
 # ---------------------------------------------------------------------------------------- the network
 def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorConfig(), batch_size: int = 64,
-            chunk: int = 512, progress: bool = False) -> Timeline:
+            chunk: int = 512, progress: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
+            gain: float | None = None, head_row: str = "first") -> Timeline:
     """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat,
     times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
-    :func:`pressurepose.net.infer.estimate`'s. Only the frames :func:`select_frames` picks are
-    estimated, ``chunk`` at a time (bounded memory), ``batch_size`` per network call. Every frame is
-    checked for looking like a person lying on the mat (:attr:`Timeline.doubtful`)."""
+    :func:`pressurepose.net.infer.estimate`'s. With ``mat`` (preset name, mat.json or MatSpec),
+    frames are a recording on that mat as it was recorded (an array (T, rows, cols) or a recording
+    file or folder, :func:`~pressurepose.data.readers.recording.read_frames`), in ``units`` ('raw'
+    or 'mmHg'; raw readings become mmHg by ``weight_kg`` or ``gain``), with the head at ``head_row``:
+    they take :func:`recording_input`'s road onto the model's mat first, as the ``monitor`` verb's do.
+    Only the frames :func:`select_frames` picks are estimated, ``chunk`` at a time (bounded memory),
+    ``batch_size`` per network call. Every frame is checked for looking like a person lying on the
+    mat (:attr:`Timeline.doubtful`)."""
     from pressurepose.body.sites import body_site_map
     from pressurepose.net.infer import (
         check_pressure,
@@ -500,6 +507,17 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
     net = resolve_model(model)
     grid = net.config.grid
+    if mat is not None:
+        from pressurepose.data.readers.recording import read_frames, resolve_mat
+
+        if units is None:
+            raise BadInput("a recording on its own mat needs units: 'raw' (with weight_kg or gain) or 'mmHg'")
+        if isinstance(frames, (str, Path)):
+            frames = read_frames(frames, resolve_mat(mat)[0].shape)
+        frames, _ = recording_input(frames, mat, units, grid, weight_kg=weight_kg, gain=gain, head_row=head_row)
+    elif units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
+        raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
+                       "too (mat=preset name or mat.json)")
     p = check_pressure(frames, grid.shape, "recording")
     t = np.asarray(times, dtype=np.float64)
     if t.shape != (len(p),):

@@ -276,6 +276,32 @@ def test_the_shipped_model_finds_every_turn_of_a_night_and_no_other():
 
 
 @pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
+def test_monitor_reads_a_recording_on_its_own_mat_as_the_verb_does(tmp_path):
+    """monitor(..., mat=, units=) takes a recording as recorded (here with its head at the last row,
+    and as a file) down the same road as recording_input, and finds the turn."""
+    from pressurepose.eval.monitor import monitor, recording_input
+    from pressurepose.mat import get_mat
+
+    frames, _ = night_recording([("supine", 120), ("left", 120)])
+    recorded = frames[:, ::-1].copy()  # head at the last row
+    times = frame_times(len(frames), fps=1.0)
+    config = MonitorConfig(min_posture_s=30)
+    via, _ = recording_input(recorded, "boditrak_bt3510", "mmHg", get_mat("boditrak_bt3510"), head_row="last")
+    want = monitor(via, times, "f", config=config)
+    got = monitor(recorded, times, "f", config=config, mat="boditrak_bt3510", units="mmHg", head_row="last")
+    assert [(t.before, t.after) for t in got.turns] == [("supine", "left")]
+    assert list(got.posture) == list(want.posture) and np.allclose(got.share, want.share)
+    np.save(tmp_path / "night.npy", recorded)
+    from_file = monitor(tmp_path / "night.npy", times, "f", config=config, mat="boditrak_bt3510", units="mmHg",
+                        head_row="last")
+    assert list(from_file.posture) == list(want.posture)
+    with pytest.raises(BadInput, match="units"):
+        monitor(recorded, times, "f", mat="boditrak_bt3510")
+    with pytest.raises(BadInput, match="give its mat"):
+        monitor(frames, times, "f", weight_kg=70)
+
+
+@pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
 def test_monitor_verb_writes_the_timeline_and_refuses_bad_recordings(tmp_path, capsys):
     from pressurepose.cli import main
 
