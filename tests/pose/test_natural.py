@@ -76,6 +76,28 @@ def test_fit_on_known_groups_and_save_load(tmp_path):
         back.draw(np.random.default_rng(0), "right_lateral")
 
 
+def test_fit_settings_regularise_and_mirror_the_supine_fit():
+    """reg_deg is added to every covariance's diagonal (sd degrees); mirror_supine fits supine to the
+    poses and their mirror images, so a one-sided supine set gives a two-sided model."""
+    rng = np.random.default_rng(2)
+    pose = np.zeros((200, 72))
+    pose[:, 3 * joint_index("left_shoulder") + 2] = rng.normal(-0.6, 0.05, 200)  # left arm raised, right down
+    pose[:, 3 * joint_index("right_shoulder") + 2] = rng.normal(0.05, 0.05, 200)
+    groups = np.array(["supine"] * 200)
+    base = dict(components=1, restarts=1, min_count=50)
+    tight, loose = (fit_natural_poses(pose, groups, FitSettings(reg_deg=r, mirror_supine=False, **base))
+                    for r in (0.5, 5.0))
+    gap = np.diagonal(loose.mixtures["supine"].covariances[0]) - np.diagonal(tight.mixtures["supine"].covariances[0])
+    np.testing.assert_allclose(gap, np.radians(5.0) ** 2 - np.radians(0.5) ** 2, rtol=1e-6)
+    left = list(tight.dims).index(3 * joint_index("left_shoulder") - 1)
+    right = list(tight.dims).index(3 * joint_index("right_shoulder") - 1)
+    mirrored = fit_natural_poses(pose, groups, FitSettings(reg_deg=0.5, mirror_supine=True, **base))
+    assert tight.mixtures["supine"].means[0, left] == pytest.approx(-0.6, abs=0.02)
+    # mirrored, each side's shoulder averages the raised and the lowered arm (z negated in the mirror)
+    assert mirrored.mixtures["supine"].means[0, left] == pytest.approx(-0.325, abs=0.02)
+    assert mirrored.mixtures["supine"].means[0, right] == pytest.approx(0.325, abs=0.02)
+
+
 def test_labels_name_the_group_where_given():
     pose = np.zeros((2, 72))
     pose[:, :3] = root_axis_angle(world_rotation(np.zeros(2), np.zeros(2)))  # both supine by the root
