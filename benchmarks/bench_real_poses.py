@@ -177,6 +177,7 @@ def main(argv=None) -> int:
     if args.count < 2:
         p.error("--count must be at least 2")
     sets = real_sets(args.fits)
+    load_before = os.getloadavg()[0]
     head = ["| poses | real group | n | mean | head | elbows | wrists | knees | ankles |",
             "|---|---|---|---|---|---|---|---|---|"]
     table, drawn, cpu = list(head), {}, {}
@@ -210,7 +211,9 @@ def main(argv=None) -> int:
         *table,
         "",
         "Draw speed, bodies per CPU second: " + ", ".join(f"`{k}` {args.count / max(v, 1e-9):.0f}"
-                                                         for k, v in cpu.items()) + ".",
+                                                         for k, v in cpu.items())
+        + f" (load average {load_before:.1f} before the draws, {os.getloadavg()[0]:.1f} after: CPU seconds on a "
+          "busy machine read high).",
     ]
     # the goal over GOAL_SEEDS sampler seeds: one seed's draws can land 0.4 cm from another's
     goals = {}
