@@ -486,8 +486,8 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
 def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorConfig(), batch_size: int = 64,
             chunk: int = 512, progress: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
             gain: float | None = None, head_row: str = "first") -> Timeline:
-    """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat,
-    times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
+    """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat (or
+    a recording file or folder of them), times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
     :func:`pressurepose.net.infer.estimate`'s. With ``mat`` (preset name, mat.json or MatSpec),
     frames are a recording on that mat as it was recorded (an array (T, rows, cols) or a recording
     file or folder, :func:`~pressurepose.data.readers.recording.read_frames`), in ``units`` ('raw'
@@ -518,6 +518,10 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     elif units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
         raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
                        "too (mat=preset name or mat.json)")
+    elif isinstance(frames, (str, Path)):
+        from pressurepose.data.readers.recording import read_frames
+
+        frames = read_frames(frames, grid.shape)  # mmHg on the model's mat, as stored
     p = check_pressure(frames, grid.shape, "recording")
     t = np.asarray(times, dtype=np.float64)
     if t.shape != (len(p),):

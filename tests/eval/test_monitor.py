@@ -295,6 +295,8 @@ def test_monitor_reads_a_recording_on_its_own_mat_as_the_verb_does(tmp_path):
     from_file = monitor(tmp_path / "night.npy", times, "f", config=config, mat="boditrak_bt3510", units="mmHg",
                         head_row="last")
     assert list(from_file.posture) == list(want.posture)
+    np.save(tmp_path / "model_mat.npy", via)  # already on the model's mat, in mmHg
+    assert list(monitor(tmp_path / "model_mat.npy", times, "f", config=config).posture) == list(want.posture)
     with pytest.raises(BadInput, match="units"):
         monitor(recorded, times, "f", mat="boditrak_bt3510")
     with pytest.raises(BadInput, match="give its mat"):
