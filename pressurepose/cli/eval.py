@@ -57,7 +57,7 @@ def run_evaluate(args) -> int:
     net = resolve_model(args.model, body_specs(args))
     net = net.to(device)
     data = load_dataset(args.data, limit=args.limit)
-    result = evaluate(net, data, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
+    result = evaluate(data, net, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
     table = format_table(result["summary"]) + "\n\n" + EVALUATE_LEGEND
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:

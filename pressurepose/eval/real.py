@@ -148,13 +148,13 @@ class RealEvaluation:
                 for i in range(len(self.rows["image"]))]
 
 
-def evaluate_real(real: RealImages, net=None, config: RealEvalConfig = RealEvalConfig()) -> RealEvaluation:
+def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEvalConfig()) -> RealEvaluation:
     """Estimates and per-estimate scores of the images of ``real`` that are scored (see
-    :func:`model_inputs`). net: a PressureNet, a model path or None (the shipped model), as
-    :func:`pressurepose.net.infer.estimate`'s ``model``."""
+    :func:`model_inputs`). model: a PressureNet, a model path or None (the shipped model), as
+    :func:`pressurepose.net.infer.estimate`'s."""
     from pressurepose.net.infer import estimate, resolve_model
 
-    net = resolve_model(net)
+    net = resolve_model(model)
     r, x, idx, genders, skipped = model_inputs(real, net, config)
     contact_mmhg = contact_threshold(net, config)
     peak = float(x.max())

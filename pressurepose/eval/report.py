@@ -43,15 +43,15 @@ def _layer_forward(net: PressureNet, gender: int):
 
 
 @torch.no_grad()
-def evaluate(net: PressureNet | str | Path | None, data: LoadedData | str | Path, batch_size: int = 64,
-             progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
+def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | None = None, batch_size: int = 64,
+              progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
     """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data``, plus the summary
     (:func:`summarise`): ``{"errors": {name: (N,) array}, "summary": {...}}``.
 
-    net: a PressureNet, a model path or None (the shipped model), as
-    :func:`pressurepose.net.infer.estimate`'s ``model``. data: a
-    :class:`pressurepose.net.data.LoadedData` or what :func:`~pressurepose.net.data.load_dataset`
-    reads (a dataset, a folder of datasets of one split, a training pack), on the model's mat.
+    data: a :class:`pressurepose.net.data.LoadedData` or what
+    :func:`~pressurepose.net.data.load_dataset` reads (a dataset, a folder of datasets of one split,
+    a training pack), on the model's mat. model: a PressureNet, a model path or None (the shipped
+    model), as :func:`pressurepose.net.infer.estimate`'s.
     Vertex errors compare with the true bodies posed by the network's own body layer (same
     topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
     mirror: average each estimate with the network's reading of the mirrored image
@@ -63,7 +63,7 @@ def evaluate(net: PressureNet | str | Path | None, data: LoadedData | str | Path
     from pressurepose.net.infer import read_batch, resolve_model
 
     require_whole("batch size", batch_size, 1)
-    net = resolve_model(net)
+    net = resolve_model(model)
     data = data if isinstance(data, LoadedData) else load_dataset(data)
     if len(data) == 0:
         raise BadInput("no samples to evaluate")

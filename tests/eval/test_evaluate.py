@@ -47,7 +47,7 @@ def test_evaluate_matches_direct_computation(setup):
     est = estimate(data["pressure"], ["fm"[int(g)] for g in data["gender"]], model=path)
     from pressurepose.net.infer import resolve_model
 
-    result = evaluate(resolve_model(path), load_dataset(root / "data"), batch_size=3)
+    result = evaluate(load_dataset(root / "data"), resolve_model(path), batch_size=3)
     np.testing.assert_allclose(result["errors"]["mod2_mpjpe"], mpjpe(est.joints, data["joints"].numpy()), atol=1e-6)
     body = toy_body()
     b, p, t = baseline_body(body.forward, BODITRAK)
@@ -79,10 +79,10 @@ def test_evaluate_takes_a_model_path_and_a_dataset_path(setup):
     root, _, path = setup
     from pressurepose.net.infer import resolve_model
 
-    by_path = evaluate(path, root / "data")
-    loaded = evaluate(resolve_model(path), load_dataset(root / "data"))
+    by_path = evaluate(root / "data", path)
+    loaded = evaluate(load_dataset(root / "data"), resolve_model(path))
     np.testing.assert_array_equal(by_path["errors"]["mod2_mpjpe"], loaded["errors"]["mod2_mpjpe"])
-    assert evaluate(None, root / "data")["summary"]["all"]["count"] == 4  # the shipped model
+    assert evaluate(root / "data")["summary"]["all"]["count"] == 4  # the shipped model
 
 
 def test_evaluate_refuses_a_dataset_of_another_mat(setup):
@@ -93,7 +93,7 @@ def test_evaluate_refuses_a_dataset_of_another_mat(setup):
     other = custom_mat(rows=64, cols=32, pitch_row_m=0.028)
     tensors = dict(data, pressure=torch.zeros(4, 64, 32), partition=torch.zeros(4, dtype=torch.long))
     with pytest.raises(BadInput, match=r"dataset's mat \(fsa, 64 x 32\) is not the model's \(64 x 27\)"):
-        evaluate(path, LoadedData(tensors, other, "fsa", ("general_supine",)))
+        evaluate(LoadedData(tensors, other, "fsa", ("general_supine",)), path)
 
 
 def _rolled(deg: float) -> np.ndarray:
