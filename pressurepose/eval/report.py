@@ -63,6 +63,8 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
     from pressurepose.net.infer import read_batch, resolve_model
 
     require_whole("batch size", batch_size, 1)
+    if isinstance(data, PressureNet):
+        raise BadInput("evaluate(data, model): the data come first, then the model")
     net = resolve_model(model)
     data = data if isinstance(data, LoadedData) else load_dataset(data)
     if len(data) == 0:

@@ -88,12 +88,15 @@ def test_evaluate_takes_a_model_path_and_a_dataset_path(setup):
 def test_evaluate_refuses_a_dataset_of_another_mat(setup):
     from pressurepose.mat import custom_mat
     from pressurepose.net.data import LoadedData
+    from pressurepose.net.infer import resolve_model
 
     root, data, path = setup
     other = custom_mat(rows=64, cols=32, pitch_row_m=0.028)
     tensors = dict(data, pressure=torch.zeros(4, 64, 32), partition=torch.zeros(4, dtype=torch.long))
     with pytest.raises(BadInput, match=r"dataset's mat \(fsa, 64 x 32\) is not the model's \(64 x 27\)"):
         evaluate(LoadedData(tensors, other, "fsa", ("general_supine",)), path)
+    with pytest.raises(BadInput, match="data come first"):
+        evaluate(resolve_model(path), root / "data")
 
 
 def _rolled(deg: float) -> np.ndarray:
