@@ -36,8 +36,8 @@ import csv
 import dataclasses
 import io
 import math
-from pathlib import Path
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -497,9 +497,11 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     ``batch_size`` per network call. Every frame is checked for looking like a person lying on the
     mat (:attr:`Timeline.doubtful`)."""
     from pressurepose.body.sites import body_site_map
+    from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.net.infer import (
         check_pressure,
         estimate,
+        refuse_recording_settings,
         resolve_model,
     )
     from pressurepose.net.plausibility import check_plausible
@@ -507,21 +509,12 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
     net = resolve_model(model)
     grid = net.config.grid
+    if mat is None:
+        refuse_recording_settings(units, weight_kg, gain, head_row)
+    if isinstance(frames, (str, Path)):  # frames as stored, on the recording's mat or else the model's
+        frames = read_frames(frames, (grid if mat is None else resolve_mat(mat)[0]).shape)
     if mat is not None:
-        from pressurepose.data.readers.recording import read_frames, resolve_mat
-
-        if units is None:
-            raise BadInput("a recording on its own mat needs units: 'raw' (with weight_kg or gain) or 'mmHg'")
-        if isinstance(frames, (str, Path)):
-            frames = read_frames(frames, resolve_mat(mat)[0].shape)
         frames, _ = recording_input(frames, mat, units, grid, weight_kg=weight_kg, gain=gain, head_row=head_row)
-    elif units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
-        raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
-                       "too (mat=preset name or mat.json)")
-    elif isinstance(frames, (str, Path)):
-        from pressurepose.data.readers.recording import read_frames
-
-        frames = read_frames(frames, grid.shape)  # mmHg on the model's mat, as stored
     p = check_pressure(frames, grid.shape, "recording")
     t = np.asarray(times, dtype=np.float64)
     if t.shape != (len(p),):

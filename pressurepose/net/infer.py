@@ -178,6 +178,14 @@ class Estimate:
 
 
 # ---------------------------------------------------------------------------------------- input
+def refuse_recording_settings(units, weight_kg, gain, head_row) -> None:
+    """BadInput when a recording's own settings (units other than mmHg, a weight, a gain, the head
+    at the last row) come without its mat: images on the model's mat take none of them."""
+    if units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
+        raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
+                       "too (mat=preset name or mat.json)")
+
+
 def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
     """Pressure images from a file: ``.npy`` ((R, C) or (B, R, C)), ``.csv`` (one image, R rows of
     C comma-separated values), ``.npz`` (array ``key``: a ``simulate`` output or a training pack) or
@@ -429,9 +437,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
         notes = (pressure_warnings(real.images, real.mat.max_mmhg, what) if real.units == "mmHg"
                  else pressure_warnings(arr, net.config.grid.max_mmhg, what))
     else:
-        if units not in (None, "mmHg") or weight_kg is not None or gain is not None or head_row != "first":
-            raise BadInput("units, weight_kg, gain and head_row describe a recording on its own mat: give its mat "
-                           "too (mat=preset name or mat.json)")
+        refuse_recording_settings(units, weight_kg, gain, head_row)
         if isinstance(pressure, (str, Path)):
             what = what or str(pressure)
             pressure = load_pressure(pressure)
