@@ -204,12 +204,14 @@ class ShardAssembler:
 def _config_difference(a: GenerationConfig, b: GenerationConfig) -> str:
     da, db = a.to_dict(), b.to_dict()
 
-    def show(d, k):
+    def show(config, d, k):
         if k == "bed":
             return "a given bed" if k in d else "the mat's default bed"
-        return repr(d.get(k))
+        if k == "poses" and k not in d:
+            return "no pose file"
+        return repr(d[k] if k in d else getattr(config, k))  # a setting the record leaves out: its default
 
-    return ", ".join(f"{k}: {show(da, k)} on disk vs {show(db, k)} now" for k in dict.fromkeys([*da, *db])
+    return ", ".join(f"{k}: {show(a, da, k)} on disk vs {show(b, db, k)} now" for k in dict.fromkeys([*da, *db])
                      if da.get(k) != db.get(k))
 
 

@@ -163,6 +163,9 @@ def test_manifest_of_another_config_is_refused_and_nothing_changes(tmp_path):
         generate(small_config(count=12, shard_size=6, seed=8), out, progress=False)
     with pytest.raises(BadInput, match="count: 12 on disk vs 13 now"):
         generate(small_config(count=13, shard_size=6), out, progress=False)
+    # a setting the record leaves out at its default is named by that default
+    with pytest.raises(BadInput, match="settle: 'relaxed' on disk vs 'paper' now"):
+        generate(small_config(count=12, shard_size=6, settle="paper"), out, progress=False)
     assert _listing(out) == before
 
 
