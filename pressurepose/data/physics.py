@@ -34,7 +34,7 @@ def sampler_config(config: GenerationConfig):
 
     return SamplerConfig(shapes=config.shapes, placement=config.placement, hanging_limbs=config.hanging_limbs,
                          across_sd_m=config.across_sd_m, across_sd_lateral_m=config.across_sd_lateral_m,
-                         poses=config.pose_file())
+                         height_reference=config.height_reference, poses=config.pose_file())
 
 
 def check_poses(config: GenerationConfig) -> None:

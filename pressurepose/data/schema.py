@@ -157,7 +157,8 @@ def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
 # which mixes in only the settings that differ from it. Its spreads (0.03 m) are the reference
 # 'centred' configs' spreads are compared with; the paper's uniform placement does not use them.
 PAPER_SAMPLING: dict[str, Any] = {"shapes": "uniform", "placement": "uniform", "hanging_limbs": True,
-                                  "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03}
+                                  "randomize": False, "across_sd_m": 0.03, "across_sd_lateral_m": 0.03,
+                                  "height_reference": "proximal"}
 
 
 @lru_cache(maxsize=16)
@@ -215,7 +216,10 @@ class GenerationConfig:
     body-shape distribution, placement on the bed, its spread across the bed for supine or prone
     and for lateral bodies (m, 'centred' only) and hanging-limbs rule
     (:class:`~pressurepose.pose.config.SamplerConfig`; defaults: SMPL's shape population, bodies
-    centred as people lie, 3 and 8 cm spreads, no limb over the edge). randomize: draw the
+    centred as people lie, 3 and 8 cm spreads, no limb over the edge). height_reference: what the
+    sampler's ankle and wrist start heights are measured from ('proximal', the default, the paper's
+    public code's rule: their hip's or shoulder's height; 'bed': the surface the body lies on, which keeps
+    more side-lying bodies on their side). randomize: draw the
     bed's, tissue's and sensor's constants and the mat's placement per sample
     (:mod:`pressurepose.sim.randomize`). bed: the bed the bodies lie on, as the canonical JSON
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
@@ -223,7 +227,8 @@ class GenerationConfig:
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
     how bodies come to rest (:data:`pressurepose.sim.settle_config.SETTLES`: 'relaxed', the default, or
     'paper', the paper's joint springs); like the bed it changes no draw. The saved record
-    (:meth:`to_dict`) leaves out the bed and the settle at their defaults, and poses when unset.
+    (:meth:`to_dict`) leaves out the bed, the settle and the height reference at their defaults, and
+    poses when unset.
     poses: "" (default: the partition's own draws) or the canonical JSON of a
     :class:`~pressurepose.pose.posefile.PoseFile` record (path, sha256, frame, noise_deg): every body
     takes its pose from that file (:mod:`pressurepose.pose.whole`); the file must stay where it was,
@@ -252,6 +257,7 @@ class GenerationConfig:
     bed: str = ""
     settle: str = "relaxed"
     poses: str = ""
+    height_reference: str = "proximal"
 
     def __post_init__(self):
         object.__setattr__(self, "partition", check_partition(self.partition))
@@ -267,12 +273,15 @@ class GenerationConfig:
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise BadInput(f"{name} = {getattr(self, name)!r}; expected true or false")
             object.__setattr__(self, name, bool(getattr(self, name)))
-        from pressurepose.pose.config import PLACEMENTS, SHAPES
+        from pressurepose.pose.config import HEIGHT_REFERENCES, PLACEMENTS, SHAPES
 
         if self.shapes not in SHAPES:
             raise BadInput(f"shapes = {self.shapes!r}; expected one of {', '.join(SHAPES)}")
         if self.placement not in PLACEMENTS:
             raise BadInput(f"placement = {self.placement!r}; expected one of {', '.join(PLACEMENTS)}")
+        if self.height_reference not in HEIGHT_REFERENCES:
+            raise BadInput(f"height_reference = {self.height_reference!r}; expected one of "
+                           f"{', '.join(HEIGHT_REFERENCES)}")
         for name in ("across_sd_m", "across_sd_lateral_m"):
             require_between(f"{name} (a spread in metres)", getattr(self, name), 0, 0.5)
             object.__setattr__(self, name, float(getattr(self, name)))
@@ -340,6 +349,8 @@ class GenerationConfig:
             d["poses"] = json.loads(self.poses)
         else:
             del d["poses"]  # likewise no pose file
+        if self.height_reference == "proximal":
+            del d["height_reference"]  # likewise the default height reference
         return d
 
     def to_json(self) -> str:
@@ -358,10 +369,12 @@ class GenerationConfig:
         unknown = sorted(set(d) - known)
         if unknown:
             raise BadInput(f"{what}: unknown keys {', '.join(unknown)}; expected some of {', '.join(sorted(known))}")
-        missing = sorted(known - set(d) - {"bed", "settle", "poses"})  # to_dict leaves those out at their defaults
+        # to_dict leaves out the bed, the settle, the pose file and the height reference at their defaults
+        missing = sorted(known - set(d) - {"bed", "settle", "poses", "height_reference"})
         if missing:
             raise BadInput(f"{what}: lacks {', '.join(missing)}; a dataset's config records every setting "
-                           f"(the bed, the settle and a pose file only when not the defaults)")
+                           f"(the bed, the settle, a pose file and the height reference only when not the "
+                           f"defaults)")
         d = dict(d)
         if isinstance(d.get("bed"), dict):
             d["bed"] = json.dumps(d["bed"], sort_keys=True)

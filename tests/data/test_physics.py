@@ -207,6 +207,41 @@ def test_a_config_carries_its_settle(tmp_path):
         GenerationConfig(partition="general", gender="f", settle="stiff")
 
 
+def test_a_config_carries_its_height_reference(tmp_path):
+    """`height_reference` ('proximal' by default, left out of the record so that configs made before
+    it keep their digests and seed streams; 'bed': distal joints start near the bed) reaches the
+    sampler and its provenance, has a random stream of its own, and a dataset begun under one
+    reference does not resume under the other."""
+    from pressurepose.data import physics
+    from pressurepose.data.pipeline import open_output
+    from pressurepose.data.schema import PAPER_SAMPLING, GenerationConfig
+    from pressurepose.errors import BadInput
+
+    plain = GenerationConfig(partition="general", gender="f")
+    bed = GenerationConfig(partition="general", gender="f", height_reference="bed")
+    # computed on the code before configs had a height reference: the default keeps its identity
+    assert plain.digest == "703ace57f412728ff438e36d42c399ca1413cab0e5bcf46b6286dc282be977e6"
+    assert plain.stream_key == 3721073151
+    paper = GenerationConfig(partition="general", gender="f", **PAPER_SAMPLING)
+    assert paper.digest == "58cb7a92c21554e0deb05e51878b0b34df019fbdf85ea0c4773fdcad4ff4bc3a"
+    assert paper.stream_key == 1618030767
+    assert "height_reference" not in plain.to_dict() and bed.to_dict()["height_reference"] == "bed"
+    assert GenerationConfig.from_json(bed.to_json()) == bed and GenerationConfig.from_json(plain.to_json()) == plain
+    assert bed.digest != plain.digest and bed.stream_key != plain.stream_key
+    paper_bed = GenerationConfig(partition="general", gender="f", **{**PAPER_SAMPLING, "height_reference": "bed"})
+    assert paper_bed.stream_key not in (paper.stream_key, plain.stream_key, bed.stream_key)
+    assert physics.sampler_config(plain).height_reference == "proximal"
+    assert physics.sampler_config(bed).height_reference == "bed"
+    assert physics.provenance(bed)["sampler"]["height_reference"] == "bed"
+    with pytest.raises(BadInput, match="height_reference = 'floor'; expected one of proximal, bed"):
+        GenerationConfig(partition="general", gender="f", height_reference="floor")
+    small = dict(partition="general_supine", gender="f", count=2, seed=3)
+    open_output(tmp_path, GenerationConfig(**small, height_reference="bed"))
+    with pytest.raises(BadInput, match=r"different config \(height_reference: 'bed' on disk vs 'proximal' now\)"):
+        open_output(tmp_path, GenerationConfig(**small))
+    assert open_output(tmp_path, GenerationConfig(**small, height_reference="bed")).config.height_reference == "bed"
+
+
 @pytest.mark.slow
 def test_generate_with_the_papers_settle(tmp_path):
     """`generate --settle paper` draws the same bodies as the default and rests them with the paper's
