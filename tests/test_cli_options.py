@@ -99,8 +99,8 @@ def test_save_every_sets_which_epochs_leave_a_resumable_state(tmp_path, monkeypa
 
 
 # --------------------------------------------------------------------------- sample, simulate, generate
-def _generate_calls(tmp_path, monkeypatch, *extra):
-    """(GenerationConfig, keywords) of each dataset `generate` would make with these flags."""
+def _generate_calls(tmp_path, monkeypatch, *extra, what=("--partition", "general", "--gender", "f", "--count", "2")):
+    """(GenerationConfig, keywords) of the first dataset `generate` would make with these flags."""
     import pressurepose.data.generate as generate_module
 
     calls = []
@@ -111,8 +111,7 @@ def _generate_calls(tmp_path, monkeypatch, *extra):
 
     monkeypatch.setattr(generate_module, "generate", fake_generate)
     with pytest.raises(SystemExit):
-        main(["generate", "--partition", "general", "--gender", "f", "--count", "2", "--out", str(tmp_path / "g"),
-              *extra])
+        main(["generate", *what, "--out", str(tmp_path / "g"), *extra])
     return calls[0]
 
 
@@ -130,6 +129,34 @@ def test_generate_passes_the_sampler_and_running_flags_on(tmp_path, monkeypatch)
     assert (config.across_sd_m, config.across_sd_lateral_m) == (0.05, 0.12)
     assert config.pose_file() == PoseFile.of(tmp_path / "mine.npz", "camera", 3.0)
     assert (kw["workers"], kw["ray_address"], kw["retries"]) == (2, "auto", 5)
+
+
+def test_generate_passes_the_height_reference_to_the_sampler(tmp_path, monkeypatch):
+    """generate --height-reference: the dataset's config and so the sampler it builds ('proximal' unless
+    given), for one partition and for a recipe's entries."""
+    from pressurepose.data.physics import sampler_config
+
+    config, _ = _generate_calls(tmp_path, monkeypatch)
+    assert config.height_reference == "proximal" == sampler_config(config).height_reference
+    config, _ = _generate_calls(tmp_path, monkeypatch, "--height-reference", "bed")
+    assert config.height_reference == "bed" == sampler_config(config).height_reference
+    config, _ = _generate_calls(tmp_path, monkeypatch, "--height-reference", "bed", what=("--recipe", "paper"))
+    assert config.height_reference == "bed"
+
+
+def test_a_dataset_made_with_the_bed_height_reference_resumes_only_with_it(tmp_path, capsys):
+    """One physics sample made with --height-reference bed: its manifest records the rule for the
+    sampler; rerunning the command resumes, rerunning it without the option is refused by name."""
+    out = tmp_path / "bed"
+    cmd = ["generate", "--partition", "general_supine", "--gender", "f", "--count", "1", "--seed", "3",
+           "--no-progress", "--out", str(out)]
+    assert main([*cmd, "--height-reference", "bed"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["config"]["height_reference"] == manifest["provenance"]["sampler"]["height_reference"] == "bed"
+    assert main([*cmd, "--height-reference", "bed"]) == 0
+    assert "kept 1" in capsys.readouterr().out
+    assert main(cmd) == 2
+    assert "height_reference: 'bed' on disk vs 'proximal' now" in capsys.readouterr().err
 
 
 def test_the_lateral_spread_moves_side_lying_bodies_across_the_bed(tmp_path):

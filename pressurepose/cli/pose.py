@@ -5,13 +5,15 @@ from __future__ import annotations
 import argparse
 
 from pressurepose.cli.args import seed_arg
+from pressurepose.pose.config import HEIGHT_REFERENCES
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
 MAX_COUNT = 100_000  # bodies per file: about 1.4 kB each in memory, and the file is written at the end
 
 
 def add_body_arguments(p: argparse.ArgumentParser) -> None:
-    """The sampler's shape, placement and hanging-limb options (shared by sample, simulate, generate)."""
+    """The sampler's shape, placement, hanging-limb, height-reference and pose-file options (shared by sample,
+    simulate, generate)."""
     p.add_argument("--shapes", choices=("normal", "uniform"), default="normal",
                    help="body shapes: betas ~ N(0, 1) within +-3, SMPL's population (normal, default), or "
                         "U(-3, 3), the paper's (uniform: a sixth of the bodies are extremely thin or heavy)")
@@ -29,6 +31,12 @@ def add_body_arguments(p: argparse.ArgumentParser) -> None:
                    help="let limbs start beyond the mattress and rest hanging over its edge (the paper's "
                         "partitions without limbs-on-bed); default: limbs start over the mattress and a body "
                         "resting with a limb hanging over the edge is rejected")
+    p.add_argument("--height-reference", choices=HEIGHT_REFERENCES, default="proximal",
+                   help="where ankles and wrists start: within 0.2 m of their hip's or shoulder's height "
+                        "(proximal, the public code's rule, default) or between 0.1 m below and 0.3 m above the "
+                        "surface the body lies on (bed: the upper limbs of a body on its side start near the bed, "
+                        "so fewer side-lying bodies roll over while settling, and settling is faster: set it when "
+                        "side-lying bodies are what you need; docs/physics.md, 'Bodies on their side')")
     p.add_argument("--poses", default=None, metavar="FILE",
                    help="draw every body's pose from this SMPL pose file instead of the partition's limb draws: "
                         "an .npz with global_orient (N x 3) and body_pose (N x 69), as SMPL fits are written, or "
@@ -57,7 +65,8 @@ def body_settings(args) -> dict:
         raise BadInput("--pose-noise and --pose-frame go with --poses FILE")
     poses = PoseFile.of(args.poses, args.pose_frame, args.pose_noise) if args.poses else None
     return {"shapes": args.shapes, "placement": args.placement, "hanging_limbs": bool(args.hanging_limbs),
-            "across_sd_m": args.across_sd, "across_sd_lateral_m": args.across_sd_lateral, "poses": poses}
+            "across_sd_m": args.across_sd, "across_sd_lateral_m": args.across_sd_lateral,
+            "height_reference": args.height_reference, "poses": poses}
 
 
 def add_sample_arguments(p: argparse.ArgumentParser) -> None:
@@ -72,11 +81,6 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gender", required=True, help="f or m (the shipped female or male body model)")
     p.add_argument("--limbs-on-bed", action="store_true",
                    help="every elbow, wrist, hand, knee, ankle and foot starts over the mattress")
-    p.add_argument("--height-reference", choices=("proximal", "bed"), default="proximal",
-                   help="distal joints (ankles, wrists) start within 0.2 m of their hip's or shoulder's "
-                        "height (proximal, the public code's rule, default) or between 0.1 m below and 0.3 m "
-                        "above the surface the body lies on (bed: keeps the upper limbs of a body on its "
-                        "side near the bed, so fewer lateral bodies roll over while settling)")
     add_body_arguments(p)
     p.add_argument("--count", type=int, required=True, help=f"number of bodies (at most {MAX_COUNT})")
     p.add_argument("--seed", type=seed_arg, required=True, help="random seed (whole number >= 0)")
@@ -118,7 +122,7 @@ def run_sample(args) -> int:
     partition = get_partition(args.partition).name
     gender = check_gender(args.gender)
     body = BodyModel(args.model or GENDER_NAMES[gender])
-    config = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
+    config = SamplerConfig(**body_settings(args))
     t0 = time.perf_counter()
     parts = []
     with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK) as bar:

@@ -28,10 +28,6 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"posture partition: {', '.join(PARTITIONS)} (also {', '.join(ALIASES)})")
     p.add_argument("--gender", required=True, help="f or m")
     p.add_argument("--limbs-on-bed", action="store_true", help="start every limb over the mattress")
-    p.add_argument("--height-reference", choices=("proximal", "bed"), default="proximal",
-                   help="where ankles and wrists start: within 0.2 m of their hip's or shoulder's height "
-                        "(proximal, default) or 0.1 m below to 0.3 m above the surface the body lies on "
-                        "(bed: fewer bodies on their side roll over while settling; see `sample --help`)")
     add_body_arguments(p)
     add_settle_argument(p)
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
@@ -120,7 +116,7 @@ def run_simulate(args) -> int:
     partition = get_partition(args.partition).name
     gender = canonical_gender(args.gender)[0]
     body, bed = BodyModel(gender), bed_for(args.mat, args.bed)
-    sampler = SamplerConfig(height_reference=args.height_reference, **body_settings(args))
+    sampler = SamplerConfig(**body_settings(args))
     settle_config = settle_preset(args.settle)
     # everything but the outputs and the count decides the bodies: a partial file of another command is refused
     run_key = json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_")
