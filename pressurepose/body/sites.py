@@ -68,8 +68,13 @@ SITE_RULE_HEIGHT_M = 1.65  # the site rules' lengths are for a body this tall; o
 
 
 def site_label(name: str) -> str:
-    """A site's name for people: 'left_heel' -> 'left heel', 'other' -> 'rest of the body'."""
-    return "rest of the body" if name == "other" else name.replace("_", " ")
+    """A site's name for people: 'left_heel' -> 'left heel', 'left_trochanter' -> 'left hip
+    (trochanter)', 'other' -> 'rest of the body'."""
+    if name == "other":
+        return "rest of the body"
+    if name.endswith("trochanter"):
+        return name.replace("trochanter", "hip (trochanter)").replace("_", " ")
+    return name.replace("_", " ")
 
 
 def site_index(name: str) -> int:

@@ -93,6 +93,7 @@ def run_monitor(args) -> int:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from pressurepose.body.sites import site_label
     from pressurepose.cli.net import body_specs
     from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.data.schema import check_gender
@@ -164,12 +165,12 @@ def run_monitor(args) -> int:
         print(f"  ... and {len(tl.turns) - SHOWN_TURNS} more (timeline.json)")
     above = sorted(((v, k) for k, v in tl.above_s.items() if v > 0 and k != "other"), reverse=True)
     print(f"above {config.threshold_mmhg:g} mmHg: " + (", ".join(
-        f"{k.replace('_', ' ')} {_clock(v)} (longest {_clock(tl.longest_above_s[k])})" for v, k in above[:6])
+        f"{site_label(k)} {_clock(v)} (longest {_clock(tl.longest_above_s[k])})" for v, k in above[:6])
         or "no site"))
     print(f"{len(tl.alerts)} alert(s): a site above {config.threshold_mmhg:g} mmHg longer than "
           f"{config.reposition_s / 3600:g} h" + (":" if tl.alerts else ""))
     for a in tl.alerts[:SHOWN_TURNS]:
-        print(f"  {a.site.replace('_', ' ')}: loaded from {_clock(a.start_s)}, due to turn at {_clock(a.due_s)}, "
+        print(f"  {site_label(a.site)}: loaded from {_clock(a.start_s)}, due to turn at {_clock(a.due_s)}, "
               f"relieved at {_clock(a.end_s)} (peak {a.peak_mmhg:.0f} mmHg)")
     print(f"written: {out / 'timeline.json'}, {out / 'timeline.csv'}, {out / 'night.png'}")
     return 0

@@ -119,6 +119,7 @@ def test_the_rest_of_the_body_is_no_site_a_nurse_can_turn_so_the_named_site_load
     assert loads.most_loaded() == ["other", "other"]
     assert loads.most_loaded(named=True) == ["sacrum", ""]
     assert site_label("other") == "rest of the body" and site_label("left_heel") == "left heel"
+    assert site_label("right_trochanter") == "right hip (trochanter)"
 
 
 def test_site_stats_refuse_malformed_input():
