@@ -12,37 +12,63 @@ CAPTION = ("Q is how far the estimated body's lower surface lies below the mattr
            "placed a few cm off, or held above the mattress (docs/real-mats.md).")
 
 
+def image_name(est: Estimate, i: int) -> str:
+    """How the pictures name image ``i`` of an estimate: its frame in the recording it was read from
+    ('frame 12'), else its index ('image 3')."""
+    return f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
+
+
+def doubt_note(est: Estimate, i: int) -> str:
+    """'' where image ``i`` looks like a person lying on the mat (or was not checked), else a line
+    saying that it does not and why, for a picture's title: its estimate means nothing."""
+    p = est.plausibility
+    if p is None or p.doubt[i] is None:
+        return ""
+    import textwrap
+
+    return textwrap.fill(f"this image does not look like a person lying on the mat ({p.reason[i]}): the estimate "
+                         f"means nothing", 110)
+
+
 def estimate_figure(est: Estimate, i: int = 0):
     """A matplotlib figure: the pressure image, the reconstructed map Q (the estimated body's sink,
     :func:`pressurepose.net.pmr.surface_maps`) and the body seen from below through the mat (laid
-    out like the images: row 0 / the head end at the top), with :data:`CAPTION` under them."""
+    out like the images: row 0 / the head end at the top, the bed's left side at the left; every
+    panel in metres on the mat), with :data:`CAPTION` under them and the image's name (and a doubt
+    about it, :func:`doubt_note`) over them."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import draw_mesh, label_along_bed
+    from pressurepose.viz.mesh import SIDES_NOTE, draw_mesh, label_across_bed, label_along_bed
 
-    fig, axes = plt.subplots(1, 3, figsize=(12, 6.4))
-    for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "mmHg"),
+    w, length = est.grid.size_m
+    extent = (0.0, w, -length, 0.0)  # row 0 (the head end) at the top, as the body seen from below
+    fig, axes = plt.subplots(1, 3, figsize=(12, 6.8))
+    for ax, img, title, unit in ((axes[0], est.pressure[i], "pressure image", "pressure (mmHg)"),
                                  (axes[1], est.q[i], "reconstructed map Q\n(the estimated body's sink)", "mm of sink")):
-        im = ax.imshow(img, cmap="magma", interpolation="nearest")
+        im = ax.imshow(img, cmap="magma", interpolation="nearest", extent=extent, vmin=0)
         ax.set_title(title)
         fig.colorbar(im, ax=ax, fraction=0.046, label=unit)
-        ax.set_xticks([])
-        ax.set_yticks([])
+        label_across_bed(ax)
+        label_along_bed(ax)
     ax = axes[2]
-    w, length = est.grid.size_m
     ax.add_patch(Rectangle((0, -length), w, length, fill=False, ls="--", color="0.5", label="mat"))
     draw_mesh(ax, est.vertices[i], est.faces, view="below")
     j = est.joints[i]
     ax.plot(j[:, 0], -j[:, 1], "o", ms=3, color="tab:red", label="joints")
     ax.legend(loc="lower right", fontsize=7)
-    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}), from below")
-    ax.set_xlabel("x across the bed (m)")
+    ax.set_title(f"estimated body ({'female' if est.gender[i] == 'f' else 'male'}),\nseen from below through the mat")
+    label_across_bed(ax)
     label_along_bed(ax)
-    fig.text(0.01, 0.01, CAPTION, fontsize=8, va="bottom", wrap=True)
+    for ax in axes[1:]:
+        ax.set_ylabel("")  # one label for the row
+    title = f"{image_name(est, i)}: the pressure image and the body estimated from it"
+    doubt = doubt_note(est, i)
+    fig.suptitle(title + (f"\n{doubt}" if doubt else ""), color="tab:red" if doubt else "black")
+    fig.text(0.01, 0.01, f"{CAPTION} {SIDES_NOTE[0].upper()}{SIDES_NOTE[1:]}.", fontsize=8, va="bottom", wrap=True)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig
 

@@ -31,6 +31,19 @@ def label_along_bed(ax) -> None:
     ax.set_ylabel("from the head end (m)")
 
 
+# the bed's sides named as a person lying on their back has them: x = 0 (column 0) is their left
+# (pressurepose.mat: the bed frame's origin is the head end's left corner)
+ACROSS_BED = "left \u2190  across the bed (m)  \u2192 right"
+SIDES_NOTE = "left and right: the bed's sides as for a person lying on their back (their left at x = 0)"
+
+
+def label_across_bed(ax) -> None:
+    """Label the horizontal axis of a picture laid out like a pressure image (column 0, x = 0, at the
+    left; seen from below the mat or a pressure image): across the bed in metres, with the bed's
+    left and right sides (:data:`SIDES_NOTE`) at its ends."""
+    ax.set_xlabel(ACROSS_BED)
+
+
 def view_axes(view: str):
     from pressurepose.errors import BadInput
 
