@@ -79,22 +79,28 @@ def run_demo(args) -> int:
     else:
         print(f"  no trained PressureNet at {model}: rebuild it with `python tools/train_shipped_model.py`")
     path = out / "demo.png"
-    save_figure_atomic(_figure(body, bed, image, true_v[0], true_j[0], est), path, dpi=110)
+    title = (f"demo: a simulated {partition} {'female' if gender == 'f' else 'male'} body ({sim.height:.2f} m, "
+             f"{sim.mass:.0f} kg, seed {args.seed}) on the {bed.mat.name} mat"
+             + (f",\nand the body PressureNet estimates from its pressure image (MPJPE {mpjpe:.1f} cm)"
+                if est is not None else ""))
+    save_figure_atomic(_figure(body, bed, image, true_v[0], true_j[0], est, title=title), path, dpi=110)
     print(f"wrote {path}")
     return 0
 
 
-def _figure(body, bed, image, true_v, true_j, est):
+def _figure(body, bed, image, true_v, true_j, est, title: str | None = None):
     """The simulated pressure image (mmHg) and the true body at rest seen from below, through the mat;
     with an estimate, also its reconstructed map Q (the estimated body's sink, mm) and the estimated
-    body from below. Every panel has the same frame: the mat and both bodies, whole."""
+    body from below. Every panel has the same frame: the mat and both bodies, whole, the head end at
+    the top and the bed's left side at the left (the sides named under the panels); ``title`` over
+    them."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import below_extent, draw_mesh, label_along_bed
+    from pressurepose.viz.mesh import SIDES_NOTE, below_extent, draw_mesh, label_across_bed, label_along_bed
 
     mat = bed.mat
     w, h = mat.cols * mat.pitch_col_m, mat.rows * mat.pitch_row_m
@@ -107,30 +113,35 @@ def _figure(body, bed, image, true_v, true_j, est):
     def colour_bar(ax, im, label):  # beside the panel, taking no room from it: every panel keeps one size
         fig.colorbar(im, cax=ax.inset_axes([1.03, 0.3, 0.05, 0.4]), label=label)
 
-    im = axes[0].imshow(image.pressure, extent=extent, cmap="viridis", vmin=0)
+    im = axes[0].imshow(image.pressure, extent=extent, cmap="viridis", vmin=0, interpolation="nearest")
     axes[0].set_title("simulated pressure image")
-    colour_bar(axes[0], im, "mmHg")
+    colour_bar(axes[0], im, "pressure (mmHg)")
     draw_mesh(axes[1], true_v, body.faces, "below", color=(0.55, 0.7, 0.9))
-    axes[1].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5)
+    axes[1].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5, label="true joints")
+    axes[1].legend(loc="lower right", fontsize=7)
     axes[1].set_title("true body at rest\n(seen through the mat)")
     if est is not None:
-        im = axes[2].imshow(est.q[0], extent=extent, cmap="magma", vmin=0)
+        im = axes[2].imshow(est.q[0], extent=extent, cmap="magma", vmin=0, interpolation="nearest")
         axes[2].set_title("reconstructed map Q\n(the estimate's sink)")
         colour_bar(axes[2], im, "mm of sink")
         draw_mesh(axes[3], est.vertices[0], est.faces, "below", color=(0.95, 0.65, 0.4))
         axes[3].scatter(true_j[:, 0], -true_j[:, 1], s=8, c="k", zorder=5, label="true joints")
         axes[3].scatter(est.joints[0, :, 0], -est.joints[0, :, 1], s=8, c="r", zorder=6, label="estimated")
         axes[3].legend(loc="lower right", fontsize=7)
-        axes[3].set_title("estimated body")
+        axes[3].set_title("estimated body\n(seen through the mat)")
     for ax in axes[1::2]:
         ax.add_patch(Rectangle((0, -h), w, h, fill=False, ls="--", color="0.5"))
     for ax in axes:
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
-        ax.set_xlabel("x across the bed (m)")
+        label_across_bed(ax)
         label_along_bed(ax)
     for ax in axes[1:]:
         ax.set_ylabel("")  # one label for the row
-    fig.tight_layout(w_pad=3.0)
+    if title:
+        fig.suptitle(title)
+    fig.text(0.01, 0.01, f"{SIDES_NOTE[0].upper()}{SIDES_NOTE[1:]}; the head end at the top.", fontsize=8,
+             va="bottom")
+    fig.tight_layout(w_pad=3.0, rect=(0, 0.03, 1, 1))
     return fig
