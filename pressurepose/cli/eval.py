@@ -195,7 +195,7 @@ def run_evaluate_real(args) -> int:
     import matplotlib.pyplot as plt
 
     fig = gallery_figure(result)
-    save_figure_atomic(fig, out / "gallery.png", dpi=80)
+    save_figure_atomic(fig, out / "gallery.png", dpi=100)
     plt.close(fig)
     print(f"{headline}\n\n{format_real_table(s)}\n\n{format_confusion(s['confusion'])}\n\nwritten to {out}")
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-RULE = ("rows chosen by the posture (right first), then the stature error where the height is known "
+RULE = ("rows ranked by the posture (read right first), then the stature error where the height is known "
         "(smallest first), then the contact IoU; one row per image")
 
 
@@ -59,7 +59,8 @@ def gallery_figure(result, count: int = 3):
     :func:`gallery_picks`, each of another image), one row each: the model input (mmHg), the
     estimated body's reconstructed map Q (mm of sink; the input's contact outlined) and the body
     seen from below through the mat, laid out like the images (as in the ``infer`` picture: a
-    supine body shows its back), every body on the same scale and extent.
+    supine body shows its back; the head end at the top, its ticks the distance from it, and the
+    bed's left side at the left), every body on the same scale and extent.
 
     result: what :func:`pressurepose.eval.real.evaluate_real` returns."""
     # what the picture reads of the evaluation
@@ -72,7 +73,7 @@ def gallery_figure(result, count: int = 3):
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    from pressurepose.viz.mesh import below_extent, draw_mesh
+    from pressurepose.viz.mesh import SIDES_NOTE, below_extent, draw_mesh, label_across_bed, label_along_bed
 
     picks = gallery_picks(rows, count)
     idx = [i for _, i in picks]
@@ -81,7 +82,8 @@ def gallery_figure(result, count: int = 3):
     p_max = max(float(x[idx].max()), 1e-6)
     q_max = max(float(est.q[idx].max()), 1e-6)
     fig = plt.figure(figsize=(10, 5.2 * len(picks) + 0.6), layout="constrained")
-    fig.suptitle("Best and worst estimates: " + RULE.replace(", then the stature", ",\nthen the stature"), fontsize=10)
+    fig.suptitle("Best and worst estimates: " + RULE.replace(", then the stature", ",\nthen the stature")
+                 + f"\n({SIDES_NOTE})", fontsize=10)
     for (kind, i), sub in zip(picks, fig.subfigures(len(picks), 1, squeeze=False)[:, 0]):
         sub.suptitle(_row_title(kind, rows, i), fontsize=9, fontweight="bold", ha="left", x=0.02)
         ax = sub.subplots(1, 3)
@@ -100,6 +102,10 @@ def gallery_figure(result, count: int = 3):
         ax[2].set_xlim(x0, x1)
         ax[2].set_ylim(y0, y1)
         ax[2].set_aspect("equal")
-        ax[2].set_title("estimated body from below (m)\ndashed: the mat", fontsize=9)
+        ax[2].set_title("estimated body from below\ndashed: the mat", fontsize=9)
+        label_along_bed(ax[2])
+        label_across_bed(ax[2])
+        ax[2].xaxis.label.set_fontsize(8)
+        ax[2].yaxis.label.set_fontsize(8)
         ax[2].tick_params(labelsize=7)
     return fig
