@@ -165,14 +165,14 @@ def _draw_wedge_side(ax, wedge) -> None:
 def _plot_simulated(body, bed, done):
     """One row per body: its pressure image on the mat (x across the bed and the distance from the
     head end, metres, as in the ``demo`` picture; one colour scale for all rows, its mmHg bar on top)
-    and the body at rest seen from the side."""
+    and the body at rest seen from the bed's right side (+x), the head end at the left."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from pressurepose.sim.wedge import Wedge
-    from pressurepose.viz.mesh import draw_mesh, label_along_bed
+    from pressurepose.viz.mesh import draw_mesh, label_across_bed, label_along_bed
 
     mat = bed.mat
     extent = [0, mat.cols * mat.pitch_col_m, -mat.rows * mat.pitch_row_m, 0]  # row 0 (head end) at -y = 0
@@ -185,9 +185,9 @@ def _plot_simulated(body, bed, done):
     side_y = (min(0.0, float(verts[..., 1].min())) - 0.05, max(-extent[2], float(verts[..., 1].max())) + 0.05)
     side_z = (float(verts[..., 2].min()) - 0.03, float(verts[..., 2].max()) + 0.03)
     for (a_img, a_side), s, v in zip(axes, done, verts):
-        im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax)
+        im = a_img.imshow(s["pressure"], extent=extent, cmap="viridis", vmin=0, vmax=vmax, interpolation="nearest")
         a_img.set_title(f"{float(s['mass']):.0f} kg, peak {s['pressure'].max():.0f} mmHg", fontsize=9)
-        a_img.set_xlabel("x across the bed (m)")
+        label_across_bed(a_img)
         label_along_bed(a_img)
         draw_mesh(a_side, v, body.faces, "bed_side")
         wedge = Wedge.from_array(s["wedge"])
@@ -196,7 +196,8 @@ def _plot_simulated(body, bed, done):
         a_side.axhline(0.0, color="0.4", lw=1)
         a_side.set_xlim(*side_y)
         a_side.set_ylim(*side_z)
-        a_side.set_title("at rest, seen from the side (bed top at z = 0)", fontsize=9)
-        a_side.set_xlabel("y along the bed (m)")
+        a_side.set_title("at rest, seen from the bed's right side (grey line: the unloaded mattress top)", fontsize=9)
+        a_side.set_xlabel("from the head end (m)")
+        a_side.set_ylabel("height (m)")
     fig.colorbar(im, ax=axes[:, 0], location="top", aspect=15, label="pressure (mmHg)")
     return fig

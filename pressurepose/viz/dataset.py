@@ -19,9 +19,9 @@ def histogram_limit(hist: np.ndarray, edges: np.ndarray) -> float:
 
 
 def summary_figure(s: Summary):
-    """Figure: the sample pressure images side by side on top, with one colour scale (mmHg bar to
-    their right), and below them the pressure histogram of loaded taxels (its axis ends with the
-    data), the load ratios and, when the dataset holds more than one partition, gender or limbs
+    """Figure: the sample pressure images side by side on top (the head end at the top, said beside
+    the first), with one colour scale (mmHg bar to their right), and below them the pressure
+    histogram of loaded taxels (its axis ends with the data), the load ratios and, when the dataset holds more than one partition, gender or limbs
     setting, the counts of each (one of them is said in the title)."""
     import matplotlib
 
@@ -46,7 +46,8 @@ def summary_figure(s: Summary):
             ax.set_title(title, fontsize=7)
             ax.set_xticks([])
             ax.set_yticks([])
-        top.colorbar(im, ax=axes, shrink=0.8, label="mmHg")
+        axes[0].set_ylabel("head end at the top", fontsize=8)
+        top.colorbar(im, ax=axes, shrink=0.8, label="pressure (mmHg)")
     labels = sorted(s.counts)
     panels = bottom.subplots(1, 3 if len(labels) > 1 else 2)
     ax = panels[0]
@@ -72,7 +73,7 @@ def summary_figure(s: Summary):
     else:
         what = "".join(f" of {p}, {'female' if g == 'f' else 'male'}{', limbs on bed' if plo else ''}"
                        for p, g, plo in labels)
-    fig.suptitle(f"{s.root.name}: {s.samples} samples{what}, rejected {100.0 * s.rejection_rate:.1f}%")
+    fig.suptitle(f"{s.root.name}: {s.samples} samples{what}, rejected {100.0 * s.rejection_rate:.1f}% of attempts")
     return fig
 
 
