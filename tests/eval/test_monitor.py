@@ -1,6 +1,7 @@
 """A night on the mat: timing, frame selection, posture runs, turns, time above the threshold, alerts."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -442,3 +443,27 @@ def test_monitor_checks_its_times_settings_and_gender_before_estimating_a_frame(
                             ("x", "gender 'x' is not known")):
         with pytest.raises(BadInput, match=message):
             monitor(frames, good, gender)
+
+
+def test_monitor_verb_refuses_an_empty_or_many_column_timestamps_file(tmp_path, capsys):
+    """An empty timestamps file printed numpy's warning with a line of source; a file of two numbers a
+    line (a frame number and a time) was read as one long list of times. Both are one-line refusals
+    naming the file, and nothing is written."""
+    from pressurepose.cli import main
+
+    np.save(tmp_path / "night.npy", np.zeros((4, 64, 27), np.float32))
+    (tmp_path / "empty.txt").write_text("")
+    np.savetxt(tmp_path / "two.csv", np.c_[np.arange(2), np.arange(2.0)], delimiter=",")  # 4 numbers, 4 frames
+    np.save(tmp_path / "two.npy", np.c_[np.arange(2), np.arange(2.0)])
+    for name, message in (("empty.txt", "holds no numbers; expected one number a line"),
+                          ("two.csv", r"holds an array of shape \(2, 2\); expected one number a line"),
+                          ("two.npy", r"holds an array of shape \(2, 2\); expected one number a line")):
+        code = main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg",
+                     "--gender", "f", "--timestamps", str(tmp_path / name), "--out", str(tmp_path / "out")])
+        err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert re.search(rf"timestamps file '.*{name}' {message}", err), err
+    assert not (tmp_path / "out").exists()
+    np.savetxt(tmp_path / "column.txt", np.arange(4.0)[:, None])  # one number a line, as before
+    assert main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg",
+                 "--gender", "f", "--timestamps", str(tmp_path / "column.txt"), "--out", str(tmp_path / "out")]) == 0
