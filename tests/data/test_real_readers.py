@@ -209,3 +209,10 @@ def test_labelled_folder_edge_cases(tmp_path):
         np.savez(fh, images=imgs)
     with pytest.raises(BadInput, match="npz archive under another name"):
         read_real(npz)
+
+
+def test_a_folder_that_is_not_a_path_is_refused_by_name():
+    """read_real(None) or (3) was a TypeError from pathlib."""
+    for folder in (None, 3, ["S1"]):
+        with pytest.raises(BadInput, match=r"^real-data folder is .*; expected a path"):
+            read_real(folder)
