@@ -30,6 +30,7 @@ from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32, require_whole
 from pressurepose.files import (
     atomic_write,
+    check_output_path,
     remove_stale_numbered,
     save_npz_atomic,
     write_json_atomic,
@@ -154,7 +155,7 @@ class Estimate:
 
         if mesh_format not in ("ply", "obj"):
             raise BadInput(f"mesh format {mesh_format!r}: expected ply or obj")
-        out = Path(out_dir)
+        out = check_output_path(out_dir, "output folder", directory=True)
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "estimate.json", out / "estimate.npz"]
         write_json_atomic(paths[0], {"units": "metres, radians (SMPL axis-angle, root first); bed frame",
@@ -363,6 +364,10 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
     if model is not None and not isinstance(model, (str, os.PathLike)):
         raise BadInput(f"model is {type(model).__name__}; expected a model file (.json, .safetensors or .pt), a "
                        f"run folder, a loaded PressureNet, or None for the shipped model")
+    if bodies is not None and (isinstance(bodies, (str, bytes)) or not isinstance(bodies, (tuple, list))
+                               or len(bodies) != 2 or not all(isinstance(b, (str, os.PathLike)) for b in bodies)):
+        raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) body model specs: 'female' / 'male', 'toy' "
+                       f"or SMPL-format files")
     path = DEFAULT_MODEL if model is None else Path(model)
     if model is None and not path.is_file():
         raise BadInput("no trained PressureNet ships with this installation yet; pass a model file "
@@ -447,6 +452,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     import warnings
 
     fitting = fit_config(fit)
+    if not isinstance(mirror, (bool, np.bool_)):  # "no" would be true
+        raise BadInput(f"mirror is {mirror!r}; expected True or False")
     net = resolve_model(model, bodies)
     frame = None
     if isinstance(pressure, RealImages) or mat is not None:

@@ -334,3 +334,19 @@ def test_genders_stored_in_a_file_are_checked_naming_the_file(model_path, tmp_pa
     assert load_genders(tmp_path / "good.npz") == ["m", "f"]
     np.savez(tmp_path / "one.npz", pressure=images, gender=np.array("f"))
     assert load_genders(tmp_path / "one.npz") == "f"
+
+
+def test_save_mirror_and_bodies_of_the_wrong_kind_are_refused_by_name(model_path, tmp_path):
+    """Estimate.save into a file or None was FileExistsError / TypeError; mirror='no' was true (the
+    estimate mirror-averaged); bodies='female' was read letter by letter ("body model 'e'")."""
+    good = toy_dataset(1, grid=GRID)["pressure"][0].numpy()
+    est = estimate(good, "f", model=model_path)
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(BadInput, match="output folder .*afile is a file; expected a folder"):
+        est.save(tmp_path / "afile")
+    with pytest.raises(BadInput, match="output folder is None; expected a path"):
+        est.save(None)
+    with pytest.raises(BadInput, match="mirror is 'no'; expected True or False"):
+        estimate(good, "f", model=model_path, mirror="no")
+    with pytest.raises(BadInput, match=r"bodies is 'female'; expected \(female, male\) body model specs"):
+        estimate(good, "f", model=model_path, bodies="female")
