@@ -2,6 +2,8 @@
 raise it for numbers, and how to say which recorded settings differ."""
 
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 
@@ -43,6 +45,14 @@ def require_numbers(name: str, v, n: int, positive: bool = False) -> tuple[float
     for i, x in enumerate(v):
         (require_positive if positive else require_finite)(f"{name}[{i}]", x)
     return tuple(float(x) for x in v)
+
+
+def require_path(name: str, v) -> Path:
+    """``v`` as a Path; BadInput naming ``name`` unless it is a str or an os.PathLike (not None, a
+    number, a list ...)."""
+    if not isinstance(v, (str, os.PathLike)):
+        raise BadInput(f"{name} is {' '.join(repr(v).split())[:80]}; expected a path (a str or pathlib.Path)")
+    return Path(v)
 
 
 def require_whole(name: str, v, lo: int, hi: int | None = None) -> None:

@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_path
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
@@ -175,7 +175,7 @@ def check_output_path(path: str | Path, what: str = "output", suffixes: tuple[st
     error). Otherwise ``path`` is a file: it must not be a folder, its suffix must be one of
     ``suffixes`` when given, and its parent folder must exist and be writable.
     """
-    path = Path(path)
+    path = require_path(what, path)
     if directory:
         if path.exists() and not path.is_dir():
             raise BadInput(f"{what} {path} is a file; expected a folder (or a path that does not exist yet)")

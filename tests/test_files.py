@@ -205,3 +205,13 @@ def test_stale_numbered_outputs_of_a_longer_run_are_removed(tmp_path):
     remove_stale_numbered(tmp_path, "mesh_", (".ply", ".obj"), [tmp_path / "mesh_000.ply"])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["estimate_000.png", "mesh_000.ply", "mesh_notes.ply",
                                                           "mine.ply"]
+
+
+def test_an_output_path_that_is_not_a_path_is_refused_by_name():
+    from pressurepose.files import check_output_path
+
+    for path in (None, 3):
+        with pytest.raises(BadInput, match=r"^--out is .*; expected a path"):
+            check_output_path(path, "--out", directory=True)
+        with pytest.raises(BadInput, match=r"^--plot is .*; expected a path"):
+            check_output_path(path, "--plot", suffixes=(".png",))

@@ -59,7 +59,8 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _timestamps(path):
-    """(T,) seconds from a timestamps file."""
+    """(T,) seconds from a timestamps file: a .npy, or a .csv / .txt of one number a line."""
+    import warnings
     from pathlib import Path
 
     import numpy as np
@@ -69,15 +70,24 @@ def _timestamps(path):
 
     path = Path(path)
     if path.suffix.lower() == ".npy":
-        return np.asarray(read_array_file(path, "timestamps"), dtype=np.float64).ravel()
-    if path.suffix.lower() not in (".csv", ".txt"):
+        values = read_array_file(path, "timestamps")
+    elif path.suffix.lower() not in (".csv", ".txt"):
         raise BadInput(f"timestamps file {str(path)!r}: expected .npy, .csv or .txt (one number a line)")
-    if not path.is_file():
+    elif not path.is_file():
         raise BadInput(f"timestamps file {str(path)!r} does not exist")
-    try:
-        return np.loadtxt(path, delimiter="," if path.suffix.lower() == ".csv" else None, ndmin=1).ravel()
-    except ValueError as exc:
-        raise BadInput(f"timestamps file {str(path)!r} could not be read ({exc})") from None
+    else:
+        try:
+            with warnings.catch_warnings():  # an empty file: our error below, not numpy's warning
+                warnings.simplefilter("ignore", UserWarning)
+                values = np.loadtxt(path, delimiter="," if path.suffix.lower() == ".csv" else None, ndmin=1)
+        except ValueError as exc:
+            raise BadInput(f"timestamps file {str(path)!r} could not be read ({exc})") from None
+        if values.size == 0:
+            raise BadInput(f"timestamps file {str(path)!r} holds no numbers; expected one number a line")
+    if sum(n > 1 for n in np.shape(values)) > 1:  # e.g. a frame number and a time a line
+        raise BadInput(f"timestamps file {str(path)!r} holds an array of shape {np.shape(values)}; expected one "
+                       f"number a line (a timestamp per frame, in seconds)")
+    return np.asarray(values).ravel()
 
 
 def _clock(seconds: float) -> str:

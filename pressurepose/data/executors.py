@@ -18,6 +18,8 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
 
+import numpy as np
+
 from pressurepose.data.pipeline import (
     AttemptsExhausted,
     GenerationError,
@@ -50,10 +52,11 @@ def run_units(units: Sequence[WorkUnit], *, workers: int = 1, ray_address: str |
 
 def check_executor(workers: int, ray_address: str | None, retries: int) -> None:
     """BadInput for settings that cannot run (checked before anything is written)."""
-    if workers < 1:
-        raise BadInput(f"workers = {workers}; expected at least 1")
-    if retries < 0:
-        raise BadInput(f"retries = {retries}; expected 0 or more")
+    whole = lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool)  # noqa: E731
+    if not whole(workers) or workers < 1:
+        raise BadInput(f"workers = {workers!r}; expected at least 1")
+    if not whole(retries) or retries < 0:
+        raise BadInput(f"retries = {retries!r}; expected 0 or more")
     if ray_address:
         _import_ray()
 

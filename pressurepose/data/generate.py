@@ -7,6 +7,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from pressurepose.data.executors import check_executor, run_units
 from pressurepose.data.pipeline import (
     ShardAssembler,
@@ -15,10 +17,11 @@ from pressurepose.data.pipeline import (
     open_output,
     plan_units,
 )
-from pressurepose.data.producers import resolve_producer
+from pressurepose.data.producers import check_options, resolve_producer
 from pressurepose.data.schema import GenerationConfig
 from pressurepose.data.store import Manifest
 from pressurepose.errors import BadInput
+from pressurepose.files import check_output_path
 from pressurepose.mat import get_mat
 
 
@@ -46,15 +49,24 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     from pressurepose.data.progress import ProgressBar
 
     t0 = time.perf_counter()
-    out = Path(out)
+    if not isinstance(config, GenerationConfig):
+        raise BadInput(f"config is {type(config).__name__}; expected a GenerationConfig")
+    out = check_output_path(out, "out", directory=True)
     get_mat(config.mat)  # unknown mats fail here, before anything is written
     resolve_producer(config.producer)
+    check_options(config)
     if config.poses and config.producer == "physics":
         from pressurepose.data.physics import check_poses
 
         check_poses(config)
     check_executor(workers, ray_address, retries)
     if only_shards is not None:  # before anything is written
+        if isinstance(only_shards, (str, bytes, dict)) or not hasattr(only_shards, "__iter__"):
+            raise BadInput(f"only_shards is {only_shards!r:.80}; expected a list of shard numbers")
+        only_shards = list(only_shards)
+        for k in only_shards:
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+                raise BadInput(f"only_shards holds {k!r:.40}; expected shard numbers (whole numbers)")
         bad = [k for k in only_shards if not 0 <= k < config.num_shards]
         if bad:
             raise BadInput(f"shards {bad} do not exist; this dataset has shards 0..{config.num_shards - 1}")

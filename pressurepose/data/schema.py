@@ -143,7 +143,10 @@ class Sample:
 def _freeze_options(options: Any) -> tuple[tuple[str, Any], ...]:
     if options is None:
         return ()
-    items = options.items() if isinstance(options, dict) else options
+    items = list(options.items()) if isinstance(options, dict) else options
+    if not (isinstance(items, (list, tuple)) and all(isinstance(i, (list, tuple)) and len(i) == 2 for i in items)):
+        raise BadInput(f"options = {options!r:.80}; expected a dict of producer settings (name -> string, number or "
+                       f"bool)")
     out = []
     for key, value in items:
         if not isinstance(value, (str, int, float, bool)):

@@ -81,33 +81,54 @@ class MonitorConfig:
 # ---------------------------------------------------------------------------------------- time
 def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s: float = 60.0) -> np.ndarray:
     """(count,) seconds from the first frame, from a frame rate ``fps`` (Hz) or ``timestamps``
-    (count,) seconds (any origin). BadInput without either, with both, for timestamps that do
-    not increase, or for a gap between frames longer than ``max_gap_s``."""
+    (count,) seconds (any origin). BadInput without either, with both, for timestamps that are not
+    numbers or do not increase, or for a gap between frames longer than ``max_gap_s``."""
     if (fps is None) == (timestamps is None):
         raise BadInput("a recording needs its timing: a frame rate (fps, frames per second) or a timestamp per "
                        "frame, not both" if fps is not None else
                        "a recording needs its timing: give its frame rate (fps, frames per second) or a timestamp "
                        "per frame")
+    require_whole("count (frames)", count, 0)
+    require_positive("max_gap_s", max_gap_s)
     if fps is not None:
         require_positive("frame rate (frames per second)", fps)
         t = np.arange(count, dtype=np.float64) / float(fps)
-    else:
-        t = np.asarray(timestamps, dtype=np.float64).ravel()
-        if t.shape != (count,):
-            raise BadInput(f"{t.size} timestamps for {count} frames; expected one per frame")
-        if not np.all(np.isfinite(t)):
-            raise BadInput("timestamps hold NaN or infinite values")
-        step = np.diff(t)
-        if np.any(step <= 0):
-            k = int(np.argmax(step <= 0))
-            raise BadInput(f"timestamps must increase: frame {k + 1} is at {t[k + 1]:g} s, frame {k} at {t[k]:g} s")
-        t = t - t[0]
+        check_times(t, count, max_gap_s)
+        return t
+    t = check_times(timestamps, count, max_gap_s, "timestamps")
+    return t - t[0] if len(t) else t
+
+
+def check_times(times, count: int, max_gap_s: float, what: str = "times") -> np.ndarray:
+    """``times`` as (count,) float64 seconds, as given; BadInput naming ``what`` unless they are one
+    finite number per frame, increasing, with no gap between frames longer than ``max_gap_s``."""
+    if times is None or isinstance(times, (str, bytes, dict)):
+        raise BadInput(f"{what} are {times!r:.80}; expected a number of seconds per frame")
+    try:
+        raw = np.asarray(times)
+    except (TypeError, ValueError):  # ragged
+        raise BadInput(f"{what} are {times!r:.80}; expected a number of seconds per frame") from None
+    if raw.dtype.kind in "mM":  # their unit is not seconds
+        raise BadInput(f"{what} hold {raw.dtype} values; expected a number of seconds per frame (not dates or "
+                       f"durations)")
+    try:
+        t = raw.astype(np.float64).ravel()
+    except (TypeError, ValueError):
+        raise BadInput(f"{what} hold {raw.dtype} values that are not numbers; expected a number of seconds per "
+                       f"frame") from None
+    if t.shape != (count,):
+        raise BadInput(f"{t.size} {what} for {count} frames; expected one per frame")
+    if not np.all(np.isfinite(t)):
+        raise BadInput(f"{what} hold NaN or infinite values")
     step = np.diff(t)
+    if np.any(step <= 0):
+        k = int(np.argmax(step <= 0))
+        raise BadInput(f"{what} must increase: frame {k + 1} is at {t[k + 1]:g} s, frame {k} at {t[k]:g} s")
     if len(step) and step.max() > max_gap_s:
         k = int(np.argmax(step))
-        raise BadInput(f"the recording has a gap of {step[k]:.0f} s between frames {k} and {k + 1} (at {t[k]:.0f} s), "
-                       f"longer than {max_gap_s:g} s: the time in it is not recorded. Split the recording there, "
-                       f"or allow longer gaps (max_gap_s; --max-gap-s)")
+        raise BadInput(f"the recording has a gap of {step[k]:.0f} s between frames {k} and {k + 1} (at "
+                       f"{t[k] - t[0]:.0f} s), longer than {max_gap_s:g} s: the time in it is not recorded. Split the "
+                       f"recording there, or allow longer gaps (max_gap_s; --max-gap-s)")
     return t
 
 
@@ -495,10 +516,13 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     they take :func:`recording_input`'s road onto the model's mat first, as the ``monitor`` verb's do.
     Only the frames :func:`select_frames` picks are estimated, ``chunk`` at a time (bounded memory),
     ``batch_size`` per network call. Every frame is checked for looking like a person lying on the
-    mat (:attr:`Timeline.doubtful`)."""
+    mat (:attr:`Timeline.doubtful`). BadInput for times that are not one increasing number per frame,
+    or that leave a gap longer than ``config.max_gap_s`` (:func:`check_times`), before any frame is
+    estimated."""
     from pressurepose.body.sites import body_site_map
     from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.net.infer import (
+        _genders,
         check_pressure,
         estimate,
         refuse_recording_settings,
@@ -507,6 +531,13 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     from pressurepose.net.plausibility import check_plausible
     from pressurepose.pose.posture import roll_angle
 
+    if not isinstance(config, MonitorConfig):
+        raise BadInput(f"config is {type(config).__name__}; expected a MonitorConfig")
+    require_whole("chunk (frames estimated at a time)", chunk, 1)
+    require_whole("batch size", batch_size, 1)
+    if isinstance(gender, bool) or not isinstance(gender, (str, int, np.integer)):
+        raise BadInput(f"gender is {gender!r:.80}; expected f or m (the person of the recording)")
+    gender = _genders(gender, 1)[0]
     net = resolve_model(model)
     grid = net.config.grid
     if mat is None:
@@ -516,9 +547,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     if mat is not None:
         frames, _ = recording_input(frames, mat, units, grid, weight_kg=weight_kg, gain=gain, head_row=head_row)
     p = check_pressure(frames, grid.shape, "recording")
-    t = np.asarray(times, dtype=np.float64)
-    if t.shape != (len(p),):
-        raise BadInput(f"{t.size} times for {len(p)} frames; expected one per frame")
+    t = check_times(times, len(p), config.max_gap_s)
     selection = select_frames(p, config)
     idx = np.flatnonzero(selection.estimated)
     roll = np.zeros(len(idx))

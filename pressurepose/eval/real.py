@@ -23,7 +23,7 @@ import numpy as np
 
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.resample import MMHG_PA
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_whole
 from pressurepose.eval.posture import (
     body_stature_mass,
     confusion,
@@ -67,10 +67,15 @@ class RealEvalConfig:
     def __post_init__(self):
         if self.gender not in GENDER_CHOICES:
             raise BadInput(f"gender {self.gender!r} is not known; expected one of {', '.join(GENDER_CHOICES)}")
-        if self.contact_mmhg is not None and not 0 <= self.contact_mmhg < float("inf"):
-            raise BadInput(f"contact_mmhg (--contact-mmhg) is {self.contact_mmhg}; expected a pressure >= 0 (mmHg)")
-        if not 0 <= self.weak_fraction < 1:
-            raise BadInput(f"weak_fraction is {self.weak_fraction}; expected a share in [0, 1)")
+        number = lambda v: isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)  # noqa: E731
+        if self.contact_mmhg is not None and not (number(self.contact_mmhg) and 0 <= self.contact_mmhg < float("inf")):
+            raise BadInput(f"contact_mmhg (--contact-mmhg) is {self.contact_mmhg!r}; expected a pressure >= 0 (mmHg)")
+        if not (number(self.weak_fraction) and 0 <= self.weak_fraction < 1):
+            raise BadInput(f"weak_fraction is {self.weak_fraction!r}; expected a share in [0, 1)")
+        require_whole("batch_size", self.batch_size, 1)
+        for name in ("force_gender", "mirror"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise BadInput(f"{name} is {getattr(self, name)!r}; expected True or False")
 
 
 def weak_images(real: RealImages, fraction: float) -> np.ndarray:
@@ -154,6 +159,11 @@ def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEva
     :func:`pressurepose.net.infer.estimate`'s."""
     from pressurepose.net.infer import estimate, resolve_model
 
+    if not isinstance(real, RealImages):
+        raise BadInput(f"real is {type(real).__name__}; expected RealImages, as read_real(folder) or "
+                       f"read_recording(...) return")
+    if not isinstance(config, RealEvalConfig):
+        raise BadInput(f"config is {type(config).__name__}; expected a RealEvalConfig")
     net = resolve_model(model)
     r, x, idx, genders, skipped = model_inputs(real, net, config)
     contact_mmhg = contact_threshold(net, config)

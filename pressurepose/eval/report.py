@@ -73,6 +73,8 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
     fitting = fit_config(fit)
+    if not isinstance(mirror, (bool, np.bool_)):  # "no" would be true
+        raise BadInput(f"mirror is {mirror!r}; expected True or False")
     net.eval()
     device = next(net.parameters()).device
     t = data.tensors

@@ -19,7 +19,7 @@ from pathlib import Path
 import torch
 
 from pressurepose.body.model import BodyModel
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_path
 from pressurepose.files import atomic_write, json_text, write_text_atomic
 from pressurepose.net.model import (
     GenderedBody,
@@ -145,7 +145,7 @@ def _load_refusal(exc: Exception) -> str:
 def read_model_files(path: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
     """(meta record, state dict) of a saved model given by its .json, .safetensors, .pt or run
     folder; BadInput for anything that is not one."""
-    path = Path(path)
+    path = require_path("model file", path)
     if path.is_dir():
         path = path / "model.json"
     if path.suffix in (".json", ".safetensors"):
@@ -200,6 +200,14 @@ def load_model(path: str | Path, bodies: tuple[BodyModel, BodyModel] | None = No
     bodies: (female, male) BodyModels to use; default: rebuilt from the stored specs. Either way
     their identities must equal the stored ones (BadInput otherwise, naming both).
     """
+    if bodies is not None and not (isinstance(bodies, (tuple, list)) and len(bodies) == 2
+                                   and all(isinstance(b, BodyModel) for b in bodies)):
+        raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) BodyModels (body_model('female'), ...), "
+                       f"or None for those the model names")
+    if device is not None:
+        from pressurepose.net.train import resolve_device
+
+        device = resolve_device(device)
     meta, weights = read_model_files(path)
     if "config" not in meta:
         raise BadInput(f"model file {str(path)!r} holds no 'config'")

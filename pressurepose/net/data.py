@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pressurepose.errors import BadInput, require_whole
+from pressurepose.errors import BadInput, require_path, require_whole
 from pressurepose.mat import MatSpec, custom_mat
 
 FIELDS = ("pressure", "betas", "pose", "transl", "joints")
@@ -37,6 +37,7 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
     """
     if limit is not None:
         require_whole("limit (None: all samples)", limit, 1)
+    require_path("dataset (a folder made by `generate`, or a training pack .npz)", path)
     if Path(path).suffix.lower() == ".npz":
         if not Path(path).is_file():
             raise BadInput(f"training pack {path} does not exist (write one with `pressurepose pack DATA --out FILE.npz`)")

@@ -14,6 +14,7 @@ A real recording on any mat (``mat=``) is read by
 
 from __future__ import annotations
 
+import os
 import weakref
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -29,6 +30,7 @@ from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32, require_whole
 from pressurepose.files import (
     atomic_write,
+    check_output_path,
     remove_stale_numbered,
     save_npz_atomic,
     write_json_atomic,
@@ -153,7 +155,7 @@ class Estimate:
 
         if mesh_format not in ("ply", "obj"):
             raise BadInput(f"mesh format {mesh_format!r}: expected ply or obj")
-        out = Path(out_dir)
+        out = check_output_path(out_dir, "output folder", directory=True)
         out.mkdir(parents=True, exist_ok=True)
         paths = [out / "estimate.json", out / "estimate.npz"]
         write_json_atomic(paths[0], {"units": "metres, radians (SMPL axis-angle, root first); bed frame",
@@ -225,23 +227,19 @@ def load_pressure(path: str | Path, key: str = "pressure") -> np.ndarray:
 def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
     """Genders stored with the images of a file: an HDF5 file's dataset ``key`` of 'f' / 'm' (a
     dataset shard), or an ``.npz``'s array ``key``: one 'f' / 'm' for all its images (a ``simulate``
-    output) or per-image codes 0 / 1 (a training pack). BadInput when there are none."""
+    output) or per-image codes 0 / 1 (a training pack). BadInput when there are none, or when they
+    are not genders (naming the file)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        from pressurepose.data.schema import GENDERS
         from pressurepose.files import load_npz
 
         try:
             values = load_npz(path, "pressure file", (key,))[key]
         except BadInput as exc:
             raise BadInput(f"{exc}; pass --gender") from None
-        if values.dtype.kind in "iu":
-            if values.size and not (0 <= values.min() and values.max() < len(GENDERS)):
-                raise BadInput(f"pressure file {str(path)!r}: gender codes {sorted(set(values.tolist()))} are not "
-                               f"indices into {GENDERS}; pass --gender")
-            return [GENDERS[int(v)] for v in np.atleast_1d(values)]
-        return str(values) if values.ndim == 0 else [str(v) for v in values]
+        names = _stored_genders(values, f"pressure file {str(path)!r}")
+        return names[0] if values.ndim == 0 and values.dtype.kind not in "iu" else names
     if suffix not in (".h5", ".hdf5"):
         raise BadInput(f"--gender is needed for {str(path)!r} (only HDF5 and .npz files can carry genders)")
     import h5py
@@ -252,7 +250,26 @@ def load_genders(path: str | Path, key: str = "gender") -> list[str] | str:
         if key not in f:
             raise BadInput(f"HDF5 file {str(path)!r} has no {key!r} dataset; pass --gender")
         values = stored_dataset(f, key, f"HDF5 file {str(path)!r}")[()]
-    return [v.decode() if isinstance(v, bytes) else str(v) for v in np.atleast_1d(values)]
+    return _stored_genders(np.asarray(values), f"HDF5 file {str(path)!r}")
+
+
+def _stored_genders(values: np.ndarray, where: str) -> list[str]:
+    """The genders of a file's array (one, or one per image): 'f' / 'm' names (str or bytes) or codes
+    0 / 1; BadInput naming ``where`` for anything else."""
+    from pressurepose.data.schema import GENDERS
+
+    if values.ndim > 1:
+        raise BadInput(f"{where}: its genders have shape {values.shape}; expected one, or one per image; pass --gender")
+    if values.dtype.kind in "iu":
+        if values.size and not (0 <= values.min() and values.max() < len(GENDERS)):
+            raise BadInput(f"{where}: gender codes {sorted(set(values.tolist()))} are not indices into {GENDERS}; "
+                           f"pass --gender")
+        return [GENDERS[int(v)] for v in np.atleast_1d(values)]
+    names = [v.decode(errors="replace") if isinstance(v, bytes) else str(v) for v in np.atleast_1d(values)]
+    for g in names:
+        if g.strip().lower() not in GENDER_CODES and g.strip() not in ("0", "1"):
+            raise BadInput(f"{where}: gender {g!r} is not known; expected f or m; pass --gender")
+    return names
 
 
 def check_pressure(pressure, shape: tuple[int, int], what: str = "pressure") -> np.ndarray:
@@ -311,7 +328,12 @@ def floor_warnings(arr: np.ndarray, floor_mmhg: float, what: str = "pressure") -
 
 
 def _genders(gender, n: int) -> list[str]:
-    items = [gender] * n if isinstance(gender, (str, int, np.integer)) else list(gender)
+    if isinstance(gender, (str, int, np.integer)) and not isinstance(gender, bool):
+        items = [gender] * n
+    elif isinstance(gender, (list, tuple, np.ndarray)) and np.ndim(gender) == 1:
+        items = list(gender)
+    else:
+        raise BadInput(f"gender is {gender!r:.80}; expected f or m for all images, or a list of one per image")
     if len(items) != n:
         raise BadInput(f"{len(items)} genders for {n} pressure images")
     out = []
@@ -339,6 +361,13 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
     """
     if isinstance(model, PressureNet):
         return model
+    if model is not None and not isinstance(model, (str, os.PathLike)):
+        raise BadInput(f"model is {type(model).__name__}; expected a model file (.json, .safetensors or .pt), a "
+                       f"run folder, a loaded PressureNet, or None for the shipped model")
+    if bodies is not None and (isinstance(bodies, (str, bytes)) or not isinstance(bodies, (tuple, list))
+                               or len(bodies) != 2 or not all(isinstance(b, (str, os.PathLike)) for b in bodies)):
+        raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) body model specs: 'female' / 'male', 'toy' "
+                       f"or SMPL-format files")
     path = DEFAULT_MODEL if model is None else Path(model)
     if model is None and not path.is_file():
         raise BadInput("no trained PressureNet ships with this installation yet; pass a model file "
@@ -423,6 +452,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     import warnings
 
     fitting = fit_config(fit)
+    if not isinstance(mirror, (bool, np.bool_)):  # "no" would be true
+        raise BadInput(f"mirror is {mirror!r}; expected True or False")
     net = resolve_model(model, bodies)
     frame = None
     if isinstance(pressure, RealImages) or mat is not None:

@@ -288,6 +288,19 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     bodies: (female, male) BodyModels (default the shipped ones). grid: the mat the images are on
     (default: a LoadedData's own, else the BodiTrak BT-3510).
     """
+    from pressurepose.files import check_output_path
+
+    if not isinstance(data, (LoadedData, Mapping)):
+        raise BadInput(f"data is {type(data).__name__}; expected a LoadedData (load_dataset(path)) or a mapping of "
+                       f"arrays")
+    if not isinstance(config, TrainConfig):
+        raise BadInput(f"config is {type(config).__name__}; expected a TrainConfig")
+    if bodies is not None and not (isinstance(bodies, (tuple, list)) and len(bodies) == 2
+                                   and all(isinstance(b, BodyModel) for b in bodies)):
+        raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) BodyModels, or None for the shipped ones")
+    if grid is not None and not isinstance(grid, MatSpec):
+        raise BadInput(f"grid is {type(grid).__name__}; expected a MatSpec (get_mat(name)) or None")
+    out_dir = check_output_path(out_dir, "out_dir", directory=True)
     if isinstance(data, LoadedData):
         if grid is not None and grid.shape != data.grid.shape:
             raise BadInput(f"grid is {grid.rows} x {grid.cols} but the data's mat ({data.mat}) is "
@@ -307,8 +320,6 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     if n_val >= n:
         raise BadInput(f"val_fraction {config.val_fraction} of {n} sample(s) holds out {n_val}, which leaves none to "
                        f"train on; use a smaller fraction or more samples")
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     perm = torch.randperm(n, generator=torch.Generator().manual_seed(config.seed))
     val_idx, train_idx = perm[:n_val].sort().values, perm[n_val:].sort().values
 
@@ -360,6 +371,7 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     amp_dtype = (torch.bfloat16 if device.type == "cpu" or (use_amp and torch.cuda.is_bf16_supported())
                  else torch.float16)
     history = list(record["history"]) if record else []
+    out_dir.mkdir(parents=True, exist_ok=True)  # only now: a refusal above writes nothing
     logger = _Logger(out_dir, history)
     resume_stage, resume_epoch = (record["stage"], record["epoch"] + 1) if record else (1, 0)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from pressurepose.errors import BadInput, require_non_negative, require_positive, require_whole
+from pressurepose.errors import BadInput, require_finite, require_non_negative, require_positive, require_whole
 
 LR_SCHEDULES = ("constant", "cosine")
 PAPER_CHANNELS = (192, 192, 384, 384)
@@ -35,6 +35,11 @@ class NoiseConfig:
     clip_max: float = 100.0
     blur_mean: float = 0.5
     blur_std: float = 0.2
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            require_non_negative(f"noise_config.{f.name}", getattr(self, f.name))
+        require_positive("noise_config.clip_max", self.clip_max)
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,7 @@ class TrainConfig:
             raise BadInput(f"lr_schedule = {self.lr_schedule!r}; expected one of {', '.join(LR_SCHEDULES)}")
         if self.loss_sigmas not in ("paper", "data"):
             raise BadInput(f"loss_sigmas = {self.loss_sigmas!r}; expected 'paper' or 'data'")
+        require_finite("val_fraction", self.val_fraction)
         if not 0 <= self.val_fraction < 1:
             raise BadInput(f"val_fraction = {self.val_fraction}; expected 0 <= f < 1")
         require_whole("seed", self.seed, 0, 2 ** 63 - 1)  # torch's generators take 64-bit seeds
@@ -112,6 +118,18 @@ class TrainConfig:
         require_non_negative("turn_loss (a weight)", self.turn_loss)
         if self.cnn not in CNN_VARIANTS:
             raise BadInput(f"cnn = {self.cnn!r}; expected one of {', '.join(CNN_VARIANTS)}")
+        for name in ("noise", "use_pmr", "edges_contact", "gender_input", "amp", "cpu_amp"):
+            if not isinstance(getattr(self, name), bool):  # "no" would be true
+                raise BadInput(f"{name} = {getattr(self, name)!r}; expected True or False")
+        if not isinstance(self.noise_config, NoiseConfig):
+            raise BadInput(f"noise_config is {type(self.noise_config).__name__}; expected a NoiseConfig")
+        require_non_negative("blur_sigma (taxels)", self.blur_sigma)
+        require_finite("dropout", self.dropout)
+        if not 0.0 <= self.dropout < 1.0:
+            raise BadInput(f"dropout is {self.dropout!r}; expected a probability from 0 to below 1 (the paper's 0.1)")
+        require_positive("gain (output gain)", self.gain)
+        if not isinstance(self.device, str):
+            raise BadInput(f"device = {self.device!r}; expected a device name: auto, cpu, cuda, cuda:1 ...")
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

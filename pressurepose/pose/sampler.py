@@ -139,7 +139,7 @@ def sample_bodies(partition, gender, count: int, seed: int, limbs_on_bed: bool =
     seed = _whole("seed", seed, 0)
     start = _whole("start", start, 0)
     rngs = (body_rng(seed, start + k) for k in range(count))
-    return _draw(part, g, rngs, bool(limbs_on_bed), body, config, seed)
+    return _draw(part, g, rngs, limbs_on_bed, body, config, seed)
 
 
 def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool = False, body=None,
@@ -148,8 +148,7 @@ def sample_one(partition, gender, rng: np.random.Generator, limbs_on_bed: bool =
     :func:`sample_bodies`."""
     if not isinstance(rng, np.random.Generator):
         raise BadInput(f"rng is {type(rng).__name__}; expected a numpy.random.Generator")
-    return _draw(get_partition(partition), check_gender(gender), [rng], bool(limbs_on_bed), body, config,
-                 None)[0]
+    return _draw(get_partition(partition), check_gender(gender), [rng], limbs_on_bed, body, config, None)[0]
 
 
 def whole_pose(part: Partition, config: SamplerConfig) -> bool:
@@ -192,12 +191,18 @@ def _file_source(poses: PoseFile) -> FileSource:
 def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: SamplerConfig,
           seed: int | None) -> SampleBatch:
     """Draw one body per generator (an iterable), BLOCK bodies at a time (no body depends on the others)."""
+    from pressurepose.body import BodyModel
+
     if not isinstance(config, SamplerConfig):
         raise BadInput(f"config is {type(config).__name__}; expected a SamplerConfig")
+    if not isinstance(limbs_on_bed, (bool, np.bool_)):  # "no" would be true
+        raise BadInput(f"limbs_on_bed is {limbs_on_bed!r}; expected True or False")
+    limbs_on_bed = bool(limbs_on_bed)
     if body is None:
-        from pressurepose.body import BodyModel
-
         body = BodyModel(GENDER_NAMES[gender])
+    elif not isinstance(body, BodyModel):
+        raise BadInput(f"body is {type(body).__name__}; expected a BodyModel (BodyModel('female'), ...), or None for "
+                       f"the shipped body of the gender")
     source = pose_source(part, config)
     parts = []
     rngs = iter(rngs)

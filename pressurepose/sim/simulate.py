@@ -138,13 +138,25 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
     ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
     :class:`~pressurepose.sim.settle_config.SettleConfig` (default: its defaults, the "relaxed" settle)."""
+    from pressurepose.body.model import BodyModel
+    from pressurepose.errors import BadInput
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one, whole_pose
+    from pressurepose.sim.bed import BedSpec
     from pressurepose.sim.press import PressFailed, mesh_centroid
+    from pressurepose.sim.randomize import Conditions
     from pressurepose.sim.settle import settle
+    from pressurepose.sim.settle_config import SettleConfig
     from pressurepose.sim.wedge import relieved_body, with_wedge
 
+    for name, value, kind, what, optional in (("body", body, BodyModel, "a BodyModel (BodyModel('female'), ...)", False),
+                                              ("bed", bed, BedSpec, "a BedSpec (see get_bed)", False),
+                                              ("conditions", conditions, Conditions, "a Conditions", True),
+                                              ("timings", timings, dict, "a dict to fill", True),
+                                              ("settle_config", settle_config, SettleConfig, "a SettleConfig", True)):
+        if not isinstance(value, kind) and not (optional and value is None):
+            raise BadInput(f"{name} is {type(value).__name__}; expected {what}" + (" or None" if optional else ""))
     clock = {} if timings is None else timings
     sampler = SamplerConfig() if sampler is None else sampler
     t0 = time.process_time()

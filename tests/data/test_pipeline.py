@@ -186,3 +186,27 @@ def test_ray_local_instance_gives_the_same_dataset(tmp_path):
     generate(c, tmp_path / "local", progress=False)
     generate(c, tmp_path / "ray", ray_address="local", progress=False)
     _assert_same(_arrays(tmp_path / "local"), _arrays(tmp_path / "ray"))
+
+
+def test_generate_refuses_arguments_of_the_wrong_kind_before_writing(tmp_path):
+    """A dict as the config, None or a file as the output, workers='2', only_shards=1 or 'a' were
+    AttributeErrors, TypeErrors or FileExistsError; an option the producer does not read was kept
+    (the verb refused it, the function did not)."""
+    from pressurepose.errors import BadInput
+
+    (tmp_path / "afile").write_text("x")
+    c = small_config(count=2)
+    for args, kwargs, message in (
+            (({"partition": "general"}, tmp_path / "a"), {}, "config is dict; expected a GenerationConfig"),
+            ((c, None), {}, "out is None; expected a path"),
+            ((c, tmp_path / "afile"), {}, "out .*afile is a file; expected a folder"),
+            ((c, tmp_path / "b"), {"workers": "2"}, "workers = '2'; expected at least 1"),
+            ((c, tmp_path / "c"), {"retries": 1.5}, "retries = 1.5; expected 0 or more"),
+            ((c, tmp_path / "d"), {"only_shards": 1}, "only_shards is 1; expected a list of shard numbers"),
+            ((c, tmp_path / "e"), {"only_shards": ["0"]}, "only_shards holds '0'; expected shard numbers"),
+            ((small_config(count=2, options={"rejct_rate": 0.5}), tmp_path / "f"), {},
+             "--option rejct_rate: producer 'synthetic' has no such option")):
+        with pytest.raises(BadInput, match=message):
+            generate(*args, progress=False, **kwargs)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+    assert generate(c, tmp_path / "g", only_shards=(np.int64(0),), progress=False).made == 1

@@ -209,3 +209,36 @@ def test_labelled_folder_edge_cases(tmp_path):
         np.savez(fh, images=imgs)
     with pytest.raises(BadInput, match="npz archive under another name"):
         read_real(npz)
+
+
+def test_a_folder_that_is_not_a_path_is_refused_by_name():
+    """read_real(None) or (3) was a TypeError from pathlib."""
+    for folder in (None, 3, ["S1"]):
+        with pytest.raises(BadInput, match=r"^real-data folder is .*; expected a path"):
+            read_real(folder)
+
+
+def test_a_negative_reading_names_the_file_line_and_reading(tmp_path):
+    """PMD text files were read with negative readings kept (the bare-recording and labelled readers
+    refuse them): now refused naming the file, the line and the reading, in experiments I and II
+    and in a text recording read by infer or monitor."""
+    from pressurepose.data.readers.recording import read_frames, read_recording
+
+    root = write_pmd_i(tmp_path / "pmd", subjects=(1,), postures=(1,))
+    path = root / "S1" / "1.txt"
+    lines = path.read_text().splitlines()
+    lines[2] = "-3\t" + lines[2].split("\t", 1)[1]
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BadInput, match=r"S1/1.txt line 3: reading 1 is '-3', negative; a pressure mat's readings are >= 0"):
+        read_real(root)
+    with pytest.raises(BadInput, match=r"1.txt line 3: reading 1 is '-3', negative"):
+        read_recording(path, "fsa_softflex_2048", "raw", weight_kg=70)
+    with pytest.raises(BadInput, match=r"1.txt line 3: reading 1 is '-3', negative"):
+        read_frames(path, (64, 32))
+    root = write_pmd_ii(tmp_path / "q")
+    bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
+    rows = bad.read_text().splitlines()
+    rows[4] = " ".join(["0"] * 26 + ["-0.5"])
+    bad.write_text("\n".join(rows) + "\n")
+    with pytest.raises(BadInput, match=rf"{bad.name} line 5: reading 27 is '-0.5', negative"):
+        read_real(root)

@@ -202,3 +202,15 @@ def test_a_long_text_recording_is_read_without_copies_of_the_night():
             tracemalloc.stop()
     assert frames.shape == (400, 64, 32) and frames.dtype == np.float32
     assert peak < 1.3 * frames.nbytes, (peak, frames.nbytes)
+
+
+def test_a_weight_or_gain_of_the_wrong_type_is_refused_and_a_numpy_integer_gain_is_taken():
+    """weight_kg=True was read as 1 kg and '70' as 70 kg (while a text gain was refused), a dict was a
+    TypeError; a gain of numpy's integer type (np.int64(2)) was refused as not a positive number."""
+    img = body_image(64, 27, seed=2, scale=3.0)
+    for weight in (True, "70", "70kg", {}, [70, [80]]):
+        with pytest.raises(BadInput, match=r"^weight_kg is .*; expected a positive number of kg, or one per frame"):
+            read_recording(img, BT, "raw", weight_kg=weight)
+    np.testing.assert_array_equal(read_recording(img, BT, "raw", gain=np.int64(2)).model_input(BT),
+                                  read_recording(img, BT, "raw", gain=2.0).model_input(BT))
+    assert read_recording(img, BT, "raw", weight_kg=np.float32(70)).weight_kg.tolist() == [70.0]

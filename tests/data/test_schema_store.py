@@ -250,3 +250,11 @@ def test_a_shard_field_reaching_into_another_file_is_refused(tmp_path):
         f["pressure"] = h5py.ExternalLink(str(tmp_path / "other.h5"), "/pressure")
     with pytest.raises(BadInput, match=r"shard .*shard-00000.h5: 'pressure' is an external link"):
         read_shard_arrays(tmp_path / "shard-00000.h5", ["pressure"])
+
+
+def test_options_that_are_not_a_mapping_of_settings_are_refused_by_name():
+    """options='x' or [('a',)] were a ValueError from unpacking."""
+    for options in ("x", [("a",)], 3):
+        with pytest.raises(BadInput, match=r"^options = .*; expected a dict of producer settings"):
+            small_config(options=options)
+    assert small_config(options=[("reject_rate", 0.5)]).option("reject_rate") == 0.5

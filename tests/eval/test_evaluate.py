@@ -138,3 +138,18 @@ def test_evaluate_verb(setup, capsys):
     assert rep_f["fit"] is True and rep["fit"] is False and rep_f["summary"]["all"]["count"] == 4
     assert rep_f["summary"]["all"]["mod2"] != rep["summary"]["all"]["mod2"]  # Mod2's bodies moved
     assert rep_f["summary"]["all"]["mod1"] == rep["summary"]["all"]["mod1"]  # Mod1's did not
+
+
+def test_evaluate_refuses_a_mirror_flag_that_is_not_true_or_false(tmp_path):
+    """mirror='no' was true: the errors of mirror-averaged estimates, silently."""
+    import pytest
+
+    from pressurepose.errors import BadInput
+    from pressurepose.eval.report import evaluate
+    from pressurepose.net.data import load_dataset
+    from tests.net.synth import write_toy_dataset
+
+    write_toy_dataset(tmp_path / "data", n=2)
+    data = load_dataset(tmp_path / "data")
+    with pytest.raises(BadInput, match="mirror is 'no'; expected True or False"):
+        evaluate(data, mirror="no")

@@ -1,6 +1,7 @@
 """A night on the mat: timing, frame selection, posture runs, turns, time above the threshold, alerts."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -392,3 +393,77 @@ def test_a_pmd_recording_of_three_postures_turns_where_the_person_turned(tmp_pat
     assert [(t["time_s"], t["before"], t["after"]) for t in rec["turns"]] == [
         (120.0, "supine", "right"), (240.0, "right", "left"), (360.0, "left", "supine")]
     assert rec["frames_estimated"] < 0.25 * 480
+
+
+def test_frame_times_refuse_counts_gaps_and_timestamps_that_are_not_numbers():
+    """Not a TypeError or ValueError, nor a silent result: a count that is not a whole number, a
+    max_gap_s that is not positive (NaN let every gap through), timestamps that are text, a dict or
+    dates (datetime64 in ms read as seconds would be 1000 times too long)."""
+    for count in (-1, 2.5, "3", None):
+        with pytest.raises(BadInput, match=r"count \(frames\) is .*; expected a whole number >= 0"):
+            frame_times(count, fps=1.0)
+    for gap in (0, -1, float("nan"), "60"):
+        with pytest.raises(BadInput, match="max_gap_s is"):
+            frame_times(3, fps=1.0, max_gap_s=gap)
+    for stamps, message in (("0,1,2", "timestamps are '0,1,2'"), (["a", "b", "c"], "not numbers"),
+                            ({"a": 1}, "timestamps are"), ([0, [1, 2], 3], "timestamps are"),
+                            (np.array(["2020-01-01T00:00:00.000", "2020-01-01T00:00:00.010", "2020-01-01T00:00:00.020"],
+                                      dtype="datetime64[ms]"), "datetime64.*not dates or durations")):
+        with pytest.raises(BadInput, match=message):
+            frame_times(3, timestamps=stamps)
+    assert frame_times(0, timestamps=[]).shape == (0,)  # was an IndexError
+    np.testing.assert_allclose(frame_times(3, timestamps=["10", "11", "12.5"]), [0, 1, 2.5])  # numbers as text: as before
+
+
+def test_monitor_checks_its_times_settings_and_gender_before_estimating_a_frame():
+    """Times given to monitor() that go backwards, repeat, hold NaN or a gap longer than max_gap_s were
+    read as they were (a timeline with wrong durations); a config or gender of the wrong type and a
+    chunk of 0 crashed (AttributeError, TypeError, ValueError)."""
+    from pressurepose.eval.monitor import monitor
+
+    frames = np.zeros((4, 64, 27), np.float32)
+    good = np.arange(4.0)
+    for times, message in (([3.0, 2.0, 1.0, 0.0], "times must increase: frame 1 is at 2 s, frame 0 at 3 s"),
+                           ([0.0, 1.0, 1.0, 2.0], "times must increase: frame 2 is at 1 s"),
+                           ([0.0, np.nan, 2.0, 3.0], "times hold NaN"),
+                           ([0.0, 1.0, 500.0, 501.0], "gap of 499 s between frames 1 and 2"),
+                           (None, "times are None"), ("abc", "times are 'abc'"), (good[:3], "3 times for 4 frames")):
+        with pytest.raises(BadInput, match=message):
+            monitor(frames, times, "f")
+    with pytest.raises(BadInput, match="gap of 499 s"):  # the config's max_gap_s, 60 s by default
+        monitor(frames, [0.0, 1.0, 500.0, 501.0], "f", config=MonitorConfig(max_gap_s=100))
+    assert len(monitor(frames, [0.0, 1.0, 500.0, 501.0], "f", config=MonitorConfig(max_gap_s=600))) == 4
+    with pytest.raises(BadInput, match="config is dict; expected a MonitorConfig"):
+        monitor(frames, good, "f", config={})
+    with pytest.raises(BadInput, match=r"chunk .* is 0; expected a whole number >= 1"):
+        monitor(frames, good, "f", chunk=0)
+    with pytest.raises(BadInput, match="batch size is 0"):  # an empty mat estimates no frame: checked all the same
+        monitor(frames, good, "f", batch_size=0)
+    for gender, message in ((None, "gender is None; expected f or m"), (["f"] * 4, r"gender is \['f'"),
+                            ("x", "gender 'x' is not known")):
+        with pytest.raises(BadInput, match=message):
+            monitor(frames, good, gender)
+
+
+def test_monitor_verb_refuses_an_empty_or_many_column_timestamps_file(tmp_path, capsys):
+    """An empty timestamps file printed numpy's warning with a line of source; a file of two numbers a
+    line (a frame number and a time) was read as one long list of times. Both are one-line refusals
+    naming the file, and nothing is written."""
+    from pressurepose.cli import main
+
+    np.save(tmp_path / "night.npy", np.zeros((4, 64, 27), np.float32))
+    (tmp_path / "empty.txt").write_text("")
+    np.savetxt(tmp_path / "two.csv", np.c_[np.arange(2), np.arange(2.0)], delimiter=",")  # 4 numbers, 4 frames
+    np.save(tmp_path / "two.npy", np.c_[np.arange(2), np.arange(2.0)])
+    for name, message in (("empty.txt", "holds no numbers; expected one number a line"),
+                          ("two.csv", r"holds an array of shape \(2, 2\); expected one number a line"),
+                          ("two.npy", r"holds an array of shape \(2, 2\); expected one number a line")):
+        code = main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg",
+                     "--gender", "f", "--timestamps", str(tmp_path / name), "--out", str(tmp_path / "out")])
+        err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert re.search(rf"timestamps file '.*{name}' {message}", err), err
+    assert not (tmp_path / "out").exists()
+    np.savetxt(tmp_path / "column.txt", np.arange(4.0)[:, None])  # one number a line, as before
+    assert main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg",
+                 "--gender", "f", "--timestamps", str(tmp_path / "column.txt"), "--out", str(tmp_path / "out")]) == 0

@@ -9,6 +9,7 @@ import pytest
 from pressurepose.body import BodyModel
 from pressurepose.body.joints import JOINT_NAMES
 from pressurepose.body.toy import toy_body_arrays
+from pressurepose.errors import BadInput
 from pressurepose.eval import posture as ps
 from pressurepose.pose.root import root_axis_angle, world_rotation
 
@@ -274,3 +275,28 @@ def test_metrics_json_is_strict_json(tmp_path):
     m = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
     assert m["stature_mae_m"] is None and m["per_subject"]["1"] == {"height_m": None, "n": 3}
     assert m["data"] == "x" and m["mat"] == "boditrak_bt3510" and m["n_images"] == 3 and m["gain"] is None
+
+
+def test_evaluate_real_refuses_what_is_not_real_images_or_its_config(tmp_path):
+    """A folder path, an array or None where RealImages go, and a dict as the config, were an
+    AttributeError; RealEvalConfig's numbers and flags of the wrong type a TypeError or silently true."""
+    from pressurepose.eval.real import RealEvalConfig, evaluate_real
+    from tests.data.realfolders import body_image, write_labelled
+
+    folder = write_labelled(tmp_path / "raw", body_image(64, 27, seed=1, scale=400)[None], ["supine"],
+                            {"preset": "boditrak_bt3510", "units": "raw"}, weights=[60], genders=["f"])
+    for real in (str(folder), folder, np.zeros((1, 64, 27)), None):
+        with pytest.raises(BadInput, match=r"^real is \w+; expected RealImages, as read_real\(folder\)"):
+            evaluate_real(real)
+    from pressurepose.data.readers.real import read_real
+
+    with pytest.raises(BadInput, match="config is dict; expected a RealEvalConfig"):
+        evaluate_real(read_real(folder), config={})
+    for field, value, message in (("contact_mmhg", "1", r"contact_mmhg \(--contact-mmhg\) is '1'"),
+                                  ("weak_fraction", "0.1", "weak_fraction is '0.1'; expected a share"),
+                                  ("weak_fraction", None, "weak_fraction is None"),
+                                  ("batch_size", 0, "batch_size is 0"),
+                                  ("mirror", "no", "mirror is 'no'; expected True or False"),
+                                  ("force_gender", 1, "force_gender is 1")):
+        with pytest.raises(BadInput, match=message):
+            RealEvalConfig(**{field: value})

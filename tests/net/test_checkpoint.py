@@ -202,3 +202,22 @@ def test_the_shipped_models_training_record_names_only_settings_training_knows()
     assert set(noise) <= {f.name for f in dataclasses.fields(NoiseConfig)}, sorted(noise)
     config = TrainConfig(**{**record, "noise_config": NoiseConfig(**noise)})
     assert {k: v for k, v in json.loads(json.dumps(config.to_dict())).items() if k in record} == record
+
+
+def test_a_model_path_bodies_or_device_of_the_wrong_kind_is_refused_by_name(tmp_path):
+    """load_model(None) or (3) was a TypeError from pathlib, bodies=('x', 'y') an AttributeError, and a
+    device torch does not know (or CUDA on a machine without it) torch's RuntimeError or AssertionError."""
+    net, body = _net()
+    path = save_model(tmp_path / "m.safetensors", net, (body, body))
+    for bad in (None, 3, ["m.json"]):
+        with pytest.raises(BadInput, match=r"^model file is .*; expected a path"):
+            load_model(bad)
+    for bodies in (("x", "y"), (body,), body):
+        with pytest.raises(BadInput, match=r"^bodies is .*; expected \(female, male\) BodyModels"):
+            load_model(path, bodies=bodies)
+    with pytest.raises(BadInput, match="device 'tpu' is not a torch device"):
+        load_model(path, device="tpu")
+    if not torch.cuda.is_available():
+        with pytest.raises(BadInput, match="CUDA is not available"):
+            load_model(path, device="cuda")
+    assert next(load_model(path, device="cpu")[0].parameters()).device.type == "cpu"

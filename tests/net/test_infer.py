@@ -295,3 +295,58 @@ def test_the_estimates_maps_read_the_bodys_lower_surface(model_path):
     assert (low < 0).any() and (low > 0).any()
     np.testing.assert_array_equal(est.contact, low < 0)  # no taxel under the sunk surface is left out
     np.testing.assert_allclose(est.q, 1000 * np.maximum(-low, 0), atol=1e-3)
+
+
+def test_a_gender_or_model_of_the_wrong_type_is_refused_by_name(model_path):
+    """None, a float or a dict as the gender, and a number or a dict as the model, are BadInput naming
+    what was expected, not a TypeError (a dict's keys were read as genders)."""
+    good = toy_dataset(1, grid=GRID)["pressure"][0].numpy()
+    for gender in (None, 0.5, {"f": 1}, b"f", True):
+        with pytest.raises(BadInput, match="expected f or m for all images, or a list of one per image"):
+            estimate(good, gender, model=model_path)
+    for model in (3, {}, ["m.json"]):
+        with pytest.raises(BadInput, match=r"^model is \w+; expected a model file"):
+            estimate(good, "f", model=model)
+
+
+def test_genders_stored_in_a_file_are_checked_naming_the_file(model_path, tmp_path, capsys):
+    """infer without --gender reads the file's genders: codes of another shape, or names that are not
+    genders, are refused naming the file (not a TypeError, nor a message that does not say where
+    the gender came from)."""
+    from pressurepose.net.infer import load_genders
+
+    images = toy_dataset(2, grid=GRID)["pressure"].numpy()
+    np.savez(tmp_path / "codes2d.npz", pressure=images, gender=np.array([[0, 1]]))
+    np.savez(tmp_path / "names.npz", pressure=images, gender=np.array(["f", "x"]))
+    with h5py.File(tmp_path / "shard.h5", "w") as f:
+        f["pressure"] = images
+        f["gender"] = np.array([b"f", b"q"])
+    for name, message in (("codes2d.npz", r"'.*codes2d.npz': its genders have shape \(1, 2\); expected one, or one "
+                                          r"per image"),
+                          ("names.npz", r"'.*names.npz': gender 'x' is not known; expected f or m"),
+                          ("shard.h5", r"HDF5 file '.*shard.h5': gender 'q' is not known; expected f or m")):
+        with pytest.raises(BadInput, match=message):
+            load_genders(tmp_path / name)
+        assert main(["infer", str(tmp_path / name), "--model", str(model_path), "--out", str(tmp_path / "out")]) == 2
+        assert "Traceback" not in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    np.savez(tmp_path / "good.npz", pressure=images, gender=np.array([1, 0]))
+    assert load_genders(tmp_path / "good.npz") == ["m", "f"]
+    np.savez(tmp_path / "one.npz", pressure=images, gender=np.array("f"))
+    assert load_genders(tmp_path / "one.npz") == "f"
+
+
+def test_save_mirror_and_bodies_of_the_wrong_kind_are_refused_by_name(model_path, tmp_path):
+    """Estimate.save into a file or None was FileExistsError / TypeError; mirror='no' was true (the
+    estimate mirror-averaged); bodies='female' was read letter by letter ("body model 'e'")."""
+    good = toy_dataset(1, grid=GRID)["pressure"][0].numpy()
+    est = estimate(good, "f", model=model_path)
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(BadInput, match="output folder .*afile is a file; expected a folder"):
+        est.save(tmp_path / "afile")
+    with pytest.raises(BadInput, match="output folder is None; expected a path"):
+        est.save(None)
+    with pytest.raises(BadInput, match="mirror is 'no'; expected True or False"):
+        estimate(good, "f", model=model_path, mirror="no")
+    with pytest.raises(BadInput, match=r"bodies is 'female'; expected \(female, male\) body model specs"):
+        estimate(good, "f", model=model_path, bodies="female")

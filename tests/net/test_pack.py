@@ -96,3 +96,16 @@ def test_pack_verb_checks_its_arguments(packed, tmp_path, capsys):
     assert "expected a file ending in .npz" in capsys.readouterr().err
     assert main(["pack", str(tmp_path / "nothing"), "--out", str(tmp_path / "p.npz")]) == 2
     assert not (tmp_path / "p.npz").exists()
+
+
+def test_a_dataset_that_is_not_a_path_is_refused_by_name():
+    """load_dataset (and evaluate, which calls it for anything but a LoadedData) with None, a number,
+    a list or an array was a TypeError from pathlib."""
+    from pressurepose.eval.report import evaluate
+
+    for data in (None, 3, ["data"], np.zeros((2, 64, 27))):
+        with pytest.raises(BadInput, match=r"^dataset \(a folder made by `generate`, or a training pack .npz\) is .*; "
+                                           r"expected a path"):
+            load_dataset(data)
+    with pytest.raises(BadInput, match=r"^dataset .* is array\(\[\[\[0\., 0\."):  # one line, whatever the array
+        evaluate(np.zeros((2, 64, 27)))

@@ -147,3 +147,54 @@ def test_training_set_goes_to_the_gpu_only_when_it_leaves_room(monkeypatch):
     assert _fits_on_gpu(torch.device("cuda"), small, None, "not a tensor")
     assert not _fits_on_gpu(torch.device("cuda"), big)
     assert not _fits_on_gpu(torch.device("cuda"), small, torch.zeros(1, dtype=torch.uint8))
+
+
+@pytest.mark.parametrize("field,value,message", [
+    ("noise", "no", "noise = 'no'; expected True or False"),  # a non-empty string was true: noise on
+    ("use_pmr", None, "use_pmr = None; expected True or False"),
+    ("amp", 1, "amp = 1; expected True or False"),
+    ("noise_config", {}, "noise_config is dict; expected a NoiseConfig"),
+    ("blur_sigma", float("nan"), r"blur_sigma \(taxels\) is nan"),
+    ("dropout", 1.5, "dropout is 1.5; expected a probability from 0 to below 1"),
+    ("gain", 0, r"gain \(output gain\) is 0; expected a positive number"),
+    ("val_fraction", "0.1", "val_fraction is '0.1'; expected a finite number"),  # was a TypeError
+    ("val_fraction", None, "val_fraction is None"),
+    ("device", None, "device = None; expected a device name"),
+])
+def test_train_config_checks_every_field_by_name(field, value, message):
+    with pytest.raises(BadInput, match=message):
+        TrainConfig(**{field: value})
+
+
+def test_noise_config_values_are_checked():
+    from pressurepose.net.train_config import NoiseConfig
+
+    with pytest.raises(BadInput, match=r"noise_config.add_std is -1"):
+        NoiseConfig(add_std=-1)
+    with pytest.raises(BadInput, match=r"noise_config.clip_max is 0"):
+        NoiseConfig(clip_max=0)
+
+
+def test_train_refuses_arguments_of_the_wrong_kind_and_writes_nothing(tmp_path):
+    """train(None, ...), a dict config, bodies given by name, a mat name as the grid and a file as the
+    run folder were AttributeErrors, TypeErrors or FileExistsError; a config no network can be built
+    from left an empty run folder behind."""
+    data = toy_dataset(2, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=0, epochs_mod2=0)
+    (tmp_path / "afile").write_text("x")
+    for args, kwargs, message in (((None, tmp_path / "a"), {}, "data is NoneType; expected a LoadedData"),
+                                  ((data, tmp_path / "b", {}), {}, "config is dict; expected a TrainConfig"),
+                                  ((data, tmp_path / "c", cfg), {"bodies": ("female", "male")},
+                                   r"bodies is \('female', 'male'\); expected \(female, male\) BodyModels"),
+                                  ((data, tmp_path / "d", cfg), {"bodies": (body, body), "grid": "boditrak_bt3510"},
+                                   "grid is str; expected a MatSpec"),
+                                  ((data, tmp_path / "afile", cfg), {"bodies": (body, body), "grid": GRID},
+                                   "out_dir .*afile is a file; expected a folder"),
+                                  ((data, None, cfg), {"bodies": (body, body), "grid": GRID},
+                                   "out_dir is None; expected a path"),
+                                  ((data, tmp_path / "e", TrainConfig(epochs_mod1=0, epochs_mod2=0, upsample=64)),
+                                   {"bodies": (body, body), "grid": GRID}, "inputs.upsample is 64")):  # when the net is built
+        with pytest.raises(BadInput, match=message):
+            train(*args, **kwargs)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]

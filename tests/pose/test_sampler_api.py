@@ -159,3 +159,16 @@ def test_cli_bad_partition_is_a_clear_error(tmp_path, capsys):
     assert "nope" in err and "general_supine" in err
 
 
+
+
+def test_a_body_or_limbs_on_bed_of_the_wrong_kind_is_refused(toy):
+    """body='female' or 3 was an AttributeError deep in the sampler; limbs_on_bed='no' was true."""
+    for body in ("female", 3):
+        with pytest.raises(BadInput, match=r"^body is \w+; expected a BodyModel"):
+            sample_bodies("general", "f", 1, seed=0, body=body)
+    for flag in ("no", None, 1):
+        with pytest.raises(BadInput, match=r"^limbs_on_bed is .*; expected True or False"):
+            sample_bodies("general", "f", 1, seed=0, limbs_on_bed=flag, body=toy)
+        with pytest.raises(BadInput, match=r"^limbs_on_bed is .*; expected True or False"):
+            sample_one("general", "f", body_rng(0, 0), limbs_on_bed=flag, body=toy)
+    assert sample_bodies("general", "f", 1, seed=0, limbs_on_bed=np.bool_(True), body=toy).limbs_on_bed is True

@@ -157,3 +157,26 @@ def test_bodies_posed_from_real_poses_hold_them_and_the_manifest_says_so(monkeyp
     assert home is None
     assert provenance(GenerationConfig(partition="natural_lateral", gender="m"))["springs"] == "drawn pose"
     assert "springs" not in provenance(GenerationConfig(partition="general_supine", gender="m"))
+
+
+def test_simulate_one_refuses_arguments_of_the_wrong_kind_before_any_work():
+    """A body given by name or None, no bed, a dict as the conditions, a list for the timings and a
+    preset name as the settle config were AttributeErrors in the sampler or the settle (or a
+    rejected body, for the conditions); limbs_on_bed='no' was true."""
+    import pytest
+
+    from pressurepose.body.toy import toy_body_arrays
+    from pressurepose.errors import BadInput
+    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.simulate import simulate_one
+
+    body, bed, rng = BodyModel(toy_body_arrays()), get_bed(), np.random.default_rng(0)
+    for args, kwargs, message in (((None, bed), {}, "body is NoneType; expected a BodyModel"),
+                                  (("female", bed), {}, "body is str; expected a BodyModel"),
+                                  ((body, None), {}, "bed is NoneType; expected a BedSpec"),
+                                  ((body, bed), {"conditions": {}}, "conditions is dict; expected a Conditions or None"),
+                                  ((body, bed), {"timings": []}, "timings is list; expected a dict to fill or None"),
+                                  ((body, bed), {"settle_config": "paper"}, "settle_config is str; expected a SettleConfig"),
+                                  ((body, bed), {"limbs_on_bed": "no"}, "limbs_on_bed is 'no'; expected True or False")):
+        with pytest.raises(BadInput, match=message):
+            simulate_one(*args, "general", "f", rng, **kwargs)

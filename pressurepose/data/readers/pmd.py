@@ -146,13 +146,19 @@ def _subject_folders(root: Path) -> list[tuple[str, Path]]:
 
 def _check_readings(path: Path, line: int, tokens: list[str], values: np.ndarray) -> None:
     """BadInput naming the file, the line and the reading when one of a line's readings is NaN,
-    infinite, or too large for the float32 images are kept in."""
+    infinite, too large for the float32 images are kept in, or negative (a mat reads no pressure
+    below 0)."""
     bad = ~np.isfinite(values) | (np.abs(values) > FLOAT32_MAX)
     if bad.any():
         j = int(np.argmax(bad))
         why = "not a finite number" if not np.isfinite(values[j]) else "out of range (too large for float32)"
         raise BadInput(f"{path} line {line}: reading {j + 1} is {tokens[j]!r}, {why}; expected finite readings "
                        f"({int(bad.sum())} such on this line)")
+    negative = values < 0
+    if negative.any():
+        j = int(np.argmax(negative))
+        raise BadInput(f"{path} line {line}: reading {j + 1} is {tokens[j]!r}, negative; a pressure mat's readings "
+                       f"are >= 0 ({int(negative.sum())} such on this line)")
 
 
 def read_frame_lines(path: str | Path, shape: tuple[int, int]) -> np.ndarray:

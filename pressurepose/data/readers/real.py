@@ -18,12 +18,12 @@ from pathlib import Path
 from pressurepose.data.readers import pmd
 from pressurepose.data.readers.images import FRAME_MODES, RealImages
 from pressurepose.data.readers.labelled import read_labelled
-from pressurepose.errors import BadInput
+from pressurepose.errors import BadInput, require_path
 
 
 def detect_layout(folder: str | Path) -> str:
     """'pmd-i', 'pmd-ii' or 'labelled' for a folder; BadInput naming what each layout needs."""
-    folder = Path(folder)
+    folder = require_path("real-data folder", folder)
     if not folder.is_dir():
         raise BadInput(f"real-data folder {folder} does not exist (or is not a folder)")
     if (folder / "images.npy").is_file() or (folder / "labels.csv").is_file():

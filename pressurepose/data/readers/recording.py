@@ -162,7 +162,7 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
     if weight_kg is not None and gain is not None:
         raise BadInput("give the person's weight or a calibration gain, not both: each alone turns raw readings "
                        "into mmHg")
-    if gain is not None and (isinstance(gain, bool) or not isinstance(gain, (int, float, np.floating))
+    if gain is not None and (isinstance(gain, bool) or not isinstance(gain, (int, float, np.integer, np.floating))
                              or not np.isfinite(gain) or gain <= 0):
         raise BadInput(f"gain is {gain!r}; expected a positive number of mmHg per raw unit")
     if units == "raw" and weight_kg is None and gain is None:
@@ -188,7 +188,13 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
         weight = np.full(n, np.nan)
     else:
         try:
-            weight = np.broadcast_to(np.asarray(weight_kg, dtype=np.float64), (n,)).copy()
+            given = np.asarray(weight_kg)
+        except ValueError:  # ragged
+            given = np.asarray(None)
+        if isinstance(weight_kg, (str, bytes)) or given.dtype.kind not in "iuf":  # not text, True (1 kg), a dict
+            raise BadInput(f"weight_kg is {weight_kg!r:.80}; expected a positive number of kg, or one per frame ({n})")
+        try:
+            weight = np.broadcast_to(given.astype(np.float64), (n,)).copy()
         except ValueError:
             raise BadInput(f"weight_kg has shape {np.shape(weight_kg)}; expected one weight, or one per frame "
                            f"({n})") from None
