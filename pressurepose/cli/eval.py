@@ -46,7 +46,7 @@ def run_evaluate(args) -> int:
     )
     from pressurepose.net.data import load_dataset
     from pressurepose.net.infer import resolve_model
-    from pressurepose.net.train import resolve_device
+    from pressurepose.net.device import resolve_device
 
     out = check_output_path(args.out, "--out", directory=True) if args.out else None
     if args.batch_size < 1:
@@ -136,7 +136,7 @@ def run_evaluate_real(args) -> int:
         write_text_atomic,
     )
     from pressurepose.net.infer import resolve_model
-    from pressurepose.net.train import resolve_device
+    from pressurepose.net.device import resolve_device
     from pressurepose.viz.gallery import gallery_figure
 
     out = check_output_path(args.out, "--out", directory=True)

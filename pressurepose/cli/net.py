@@ -87,7 +87,8 @@ def run_train(args) -> int:
                          cnn=args.cnn, cpu_amp=args.cpu_amp, contact_floor_mmhg=args.contact_floor,
                          turn_loss=args.turn_loss)
     if args.cpu_amp:
-        from pressurepose.net.train import cpu_bf16, resolve_device
+        from pressurepose.net.device import resolve_device
+        from pressurepose.net.train import cpu_bf16
 
         if resolve_device(args.device).type == "cpu" and cpu_bf16() is False:
             print("warning: --cpu-amp on a CPU without bf16 instructions trains about 10x slower than without it "

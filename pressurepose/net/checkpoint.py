@@ -205,7 +205,7 @@ def load_model(path: str | Path, bodies: tuple[BodyModel, BodyModel] | None = No
         raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) BodyModels (body_model('female'), ...), "
                        f"or None for those the model names")
     if device is not None:
-        from pressurepose.net.train import resolve_device
+        from pressurepose.net.device import resolve_device
 
         device = resolve_device(device)
     meta, weights = read_model_files(path)

@@ -46,6 +46,7 @@ from pressurepose.files import atomic_write, write_json_atomic, write_text_atomi
 from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
 from pressurepose.net.data import LoadedData
+from pressurepose.net.device import resolve_device
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import add_noise
@@ -134,19 +135,6 @@ def truth_maps(net: PressureNet, data: dict[str, torch.Tensor], device, chunk: i
 
 
 # ---------------------------------------------------------------------------------------- helpers
-def resolve_device(name: str) -> torch.device:
-    """A torch device from 'auto', 'cpu', 'cuda', 'cuda:1'...; BadInput for unknown names or CUDA without CUDA."""
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        dev = torch.device(name)
-    except RuntimeError:
-        raise BadInput(f"device {name!r} is not a torch device (e.g. cpu, cuda, cuda:1)") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise BadInput(f"device {name!r} asked for, but CUDA is not available")
-    return dev
-
-
 def cpu_bf16() -> bool | None:
     """Whether this CPU runs bfloat16 arithmetic natively (AVX512-BF16 or AMX), as PyTorch's oneDNN
     reports it; None where PyTorch does not say. Without it ``cpu_amp`` trains about 10x slower

@@ -107,6 +107,12 @@ def test_bad_inputs_name_the_file(tmp_path):
     (root / "S1" / "1.txt").write_text("1\t2\t3\n")
     with pytest.raises(BadInput, match=r"1.txt line 1 has 3 readings; expected 2048"):
         read_real(root)
+    (root / "subject-info-i.csv").unlink()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
+        read_real(root)
+    (root / "subject-info-i.csv").mkdir()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
+        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     bad.write_text("1 2 3\n" * 64)
@@ -176,6 +182,12 @@ def test_a_non_finite_reading_names_the_file_line_and_reading(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(BadInput, match=r"S1/1.txt line 3: reading 1 is 'nan', not a finite number"):
         read_real(root)
+    (root / "subject-info-i.csv").unlink()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
+        read_real(root)
+    (root / "subject-info-i.csv").mkdir()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
+        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     rows = bad.read_text().splitlines()
@@ -235,6 +247,12 @@ def test_a_negative_reading_names_the_file_line_and_reading(tmp_path):
         read_recording(path, "fsa_softflex_2048", "raw", weight_kg=70)
     with pytest.raises(BadInput, match=r"1.txt line 3: reading 1 is '-3', negative"):
         read_frames(path, (64, 32))
+    (root / "subject-info-i.csv").unlink()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
+        read_real(root)
+    (root / "subject-info-i.csv").mkdir()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
+        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     rows = bad.read_text().splitlines()

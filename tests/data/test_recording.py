@@ -112,8 +112,12 @@ def test_bad_recordings_say_what_is_wrong(tmp_path):
         read_recording(-img, BT, "mmHg")
     with pytest.raises(BadInput, match=r"values up to 1e\+39, out of range: too large for float32"):
         read_recording(np.where(img > 0, 1e39, 0.0), BT, "mmHg")  # finite in float64, not in float32
-    with pytest.raises(BadInput, match="not a positive number of kg"):
-        read_recording(img, BT, "raw", weight_kg=-3)
+    with pytest.raises(BadInput, match=r"is a folder; expected a file \(.npy, .csv, .txt\)"):
+        read_recording(tmp_path, BT, "mmHg")
+    for weight in (-3, 0.5, 70_000):  # not a weight; one in g
+        with pytest.raises(BadInput, match=r"is not a person's weight in kg; expected 2 to 400 kg"):
+            read_recording(img, BT, "raw", weight_kg=weight)
+    assert read_recording(np.stack([img, img]), BT, "raw", weight_kg=[2, 400]).weight_kg.tolist() == [2, 400]
     with pytest.raises(BadInput, match="gain is"):
         read_recording(img, BT, "raw", gain=0)
     (tmp_path / "short.txt").write_text("1 2 3\n")

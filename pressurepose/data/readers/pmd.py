@@ -75,6 +75,8 @@ PMD_I_SHAPE, PMD_II_SHAPE = (64, 32), (64, 27)
 
 
 def _read_text(path: Path, encoding: str = "utf-8") -> str:
+    if not path.is_file():
+        raise BadInput(f"{path} is {'a folder' if path.is_dir() else 'missing'}; expected a text file")
     try:
         return path.read_text(encoding=encoding)
     except (OSError, UnicodeError) as exc:

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.readers.images import RealImages
+from pressurepose.data.readers.images import WEIGHT_RANGE_KG, RealImages
 from pressurepose.data.readers.labelled import (
     gain_of_record,
     mat_of_record,
@@ -110,6 +110,8 @@ def read_file_frames(path: str | Path, shape: tuple[int, int], what: str = "reco
     readings that are not finite numbers or are negative."""
     path = Path(path)
     suffix = path.suffix.lower()
+    if path.is_dir():
+        raise BadInput(f"{what} {str(path)!r} is a folder; expected a file ({', '.join(RECORDING_SUFFIXES)})")
     if suffix not in RECORDING_SUFFIXES:
         raise BadInput(f"{what} {str(path)!r}: expected {', '.join(RECORDING_SUFFIXES)}")
     if not path.is_file():
@@ -198,8 +200,9 @@ def read_recording(source, mat, units: str, weight_kg=None, gain: float | None =
         except ValueError:
             raise BadInput(f"weight_kg has shape {np.shape(weight_kg)}; expected one weight, or one per frame "
                            f"({n})") from None
-        if not np.all(np.isfinite(weight) & (weight > 0)):
-            raise BadInput(f"weight {weight_kg!r} is not a positive number of kg")
+        lo, hi = WEIGHT_RANGE_KG
+        if not np.all(np.isfinite(weight) & (weight >= lo) & (weight <= hi)):
+            raise BadInput(f"weight {weight_kg!r} is not a person's weight in kg; expected {lo:g} to {hi:g} kg")
     empty = lambda value: np.full(n, value)  # noqa: E731
     return RealImages(images=orient(frames, head_row0=head_row == "first"), posture=empty(""),
                       detail=empty(""), height_m=empty(np.nan), weight_kg=weight, gender=empty(""), subject=empty(""),
