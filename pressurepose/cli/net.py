@@ -220,11 +220,6 @@ SHOWN_ESTIMATES = 5  # images whose pelvis and shape infer prints
 SHOWN_DOUBTS = 20  # images that do not look like a person lying down, one warning line each
 
 
-def image_name(est, i: int) -> str:
-    """'frame 12' (its frame in the recording) or 'image 3' (its index in the input)."""
-    return f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-
-
 def doubt_lines(est, source: str) -> list[str]:
     """One warning sentence per image of ``est`` that does not look like a person lying on the mat
     (:attr:`~pressurepose.net.infer.Estimate.plausibility`), at most :data:`SHOWN_DOUBTS` and a
@@ -232,7 +227,7 @@ def doubt_lines(est, source: str) -> list[str]:
     if est.plausibility is None:
         return []
     doubtful = est.plausibility.doubtful
-    lines = [f"{image_name(est, int(i))} of {source} does not look like a person lying on the mat: "
+    lines = [f"{est.image_name(int(i))} of {source} does not look like a person lying on the mat: "
              f"{est.plausibility.reason[i]}; its estimate means nothing (written all the same)"
              for i in doubtful[:SHOWN_DOUBTS]]
     if len(doubtful) > SHOWN_DOUBTS:
@@ -313,7 +308,7 @@ def run_infer(args) -> int:
         root = est.joints[i, 0]
         doubt = ("" if est.plausibility is None or est.plausibility.ok[i]
                  else " (not like a person lying on the mat: see the warning)")
-        print(f"  {image_name(est, i)}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, "
+        print(f"  {est.image_name(i)}: {posture} (turned {turn[i]:+.0f} deg), stature {height[i]:.2f} m, "
               f"{mass[i]:.0f} kg, pelvis at x {root[0]:.2f}, y {root[1]:.2f} m{most_loaded(est, i)}{doubt}")
     if len(est) > SHOWN_ESTIMATES:
         print(f"  ... and {len(est) - SHOWN_ESTIMATES} more (all in {out / 'estimate.json'})")

@@ -9,7 +9,8 @@ Modules (import from them; this package stays light):
 * ``outputs`` / ``rotations``: soft-limited body parameters; root rotation from atan2 pairs (Euler)
 * ``pmr``: differentiable sink-depth, pressure (Q) and contact maps from a mesh
 * ``model``: ``PressureNet`` = Mod1 + Mod2 with the gendered body layer
-* ``losses``: L1 and L2; ``train``: the training loop; ``checkpoint``: safe saving/loading
+* ``losses``: L1 and L2; ``train``: the training loop; ``checkpoint``: safe saving/loading; ``device``:
+  the torch device a run or model uses, from its name
 * ``infer``: ``estimate(pressure, gender, model) -> Estimate``; ``mirror``: averaging an image's reading
   with its mirror's; ``fit``: moving an estimated body onto its image's print; ``plausibility``: whether
   an image looks like a person lying on the mat; ``data``: generated datasets and training packs in

@@ -92,6 +92,11 @@ class Estimate:
     def __len__(self) -> int:
         return int(self.betas.shape[0])
 
+    def image_name(self, i: int) -> str:
+        """How reports and pictures name image ``i``: its frame in the recording it was read from
+        ('frame 12'), else its index in the input ('image 3')."""
+        return f"frame {int(self.frame[i])}" if self.frame is not None else f"image {i}"
+
     def _surface_maps(self) -> tuple[np.ndarray, np.ndarray]:
         if self._maps is None:
             verts, faces = torch.from_numpy(np.asarray(self.vertices, np.float32)), torch.from_numpy(self.faces)

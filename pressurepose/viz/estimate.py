@@ -12,12 +12,6 @@ CAPTION = ("Q is how far the estimated body's lower surface lies below the mattr
            "placed a few cm off, or held above the mattress (docs/real-mats.md).")
 
 
-def image_name(est: Estimate, i: int) -> str:
-    """How the pictures name image ``i`` of an estimate: its frame in the recording it was read from
-    ('frame 12'), else its index ('image 3')."""
-    return f"frame {int(est.frame[i])}" if est.frame is not None else f"image {i}"
-
-
 def doubt_note(est: Estimate, i: int) -> str:
     """'' where image ``i`` looks like a person lying on the mat (or was not checked), else a line
     saying that it does not and why, for a picture's title: its estimate means nothing."""
@@ -65,7 +59,7 @@ def estimate_figure(est: Estimate, i: int = 0):
     label_along_bed(ax)
     for ax in axes[1:]:
         ax.set_ylabel("")  # one label for the row
-    title = f"{image_name(est, i)}: the pressure image and the body estimated from it"
+    title = f"{est.image_name(i)}: the pressure image and the body estimated from it"
     doubt = doubt_note(est, i)
     fig.suptitle(title + (f"\n{doubt}" if doubt else ""), color="tab:red" if doubt else "black")
     fig.text(0.01, 0.01, f"{CAPTION} {SIDES_NOTE[0].upper()}{SIDES_NOTE[1:]}.", fontsize=8, va="bottom", wrap=True)

@@ -81,7 +81,7 @@ def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMH
     from matplotlib import colors as mcolors
     from matplotlib import patheffects
 
-    from pressurepose.viz.estimate import doubt_note, image_name
+    from pressurepose.viz.estimate import doubt_note
     from pressurepose.viz.mesh import SIDES_NOTE, draw_mesh, label_across_bed, label_along_bed
 
     if est.sites is None or est.vertex_pressure is None:
@@ -146,7 +146,7 @@ def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMH
     ax.set_xlabel("peak pressure (mmHg); red: above the threshold")
     ax.set_title("load per body site")
     top, named = loads.most_loaded()[i], loads.most_loaded(named=True)[i]
-    title = f"{image_name(est, i)}: most loaded: {site_label(top) or '-'}"
+    title = f"{est.image_name(i)}: most loaded: {site_label(top) or '-'}"
     if top == SITES[OTHER] and named:  # 'the rest of the body' names no site: the named site loaded most too
         title += f"; of the named sites: {site_label(named)}"
     doubt = doubt_note(est, i)

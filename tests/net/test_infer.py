@@ -350,3 +350,12 @@ def test_save_mirror_and_bodies_of_the_wrong_kind_are_refused_by_name(model_path
         estimate(good, "f", model=model_path, mirror="no")
     with pytest.raises(BadInput, match=r"bodies is 'female'; expected \(female, male\) body model specs"):
         estimate(good, "f", model=model_path, bodies="female")
+
+
+def test_an_image_is_named_by_its_frame_else_its_index():
+    from types import SimpleNamespace
+
+    from pressurepose.net.infer import Estimate
+
+    assert Estimate.image_name(SimpleNamespace(frame=np.array([12, 40])), 1) == "frame 40"
+    assert Estimate.image_name(SimpleNamespace(frame=None), 3) == "image 3"

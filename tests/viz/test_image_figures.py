@@ -52,10 +52,11 @@ def _estimate(doubt=None):
     taxel[:, 10:12, 2:6] = site_index("other")
     tetra = np.array([[0.2, 0.2, 0.0], [0.6, 0.3, 0.0], [0.4, 1.4, 0.0], [0.4, 0.6, 0.15]])
     plaus = None if doubt is None else SimpleNamespace(doubt=(None, "few"), reason=("", doubt))
-    return SimpleNamespace(
+    frame = np.array([3, 4])
+    return SimpleNamespace(image_name=lambda i: f"frame {frame[i]}",
         grid=GRID, pressure=pressure, q=rng.uniform(0, 40, (2, 16, 8)), vertices=np.stack([tetra, tetra]),
         faces=np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]), joints=np.stack([tetra, tetra]),
-        gender=["f", "m"], frame=np.array([3, 4]), plausibility=plaus, sites=site_stats(pressure, taxel, GRID),
+        gender=["f", "m"], frame=frame, plausibility=plaus, sites=site_stats(pressure, taxel, GRID),
         vertex_pressure=rng.uniform(0, 50, (2, 4)))
 
 
