@@ -107,12 +107,6 @@ def test_bad_inputs_name_the_file(tmp_path):
     (root / "S1" / "1.txt").write_text("1\t2\t3\n")
     with pytest.raises(BadInput, match=r"1.txt line 1 has 3 readings; expected 2048"):
         read_real(root)
-    (root / "subject-info-i.csv").unlink()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
-        read_real(root)
-    (root / "subject-info-i.csv").mkdir()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
-        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     bad.write_text("1 2 3\n" * 64)
@@ -182,12 +176,6 @@ def test_a_non_finite_reading_names_the_file_line_and_reading(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(BadInput, match=r"S1/1.txt line 3: reading 1 is 'nan', not a finite number"):
         read_real(root)
-    (root / "subject-info-i.csv").unlink()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
-        read_real(root)
-    (root / "subject-info-i.csv").mkdir()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
-        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     rows = bad.read_text().splitlines()
@@ -247,16 +235,20 @@ def test_a_negative_reading_names_the_file_line_and_reading(tmp_path):
         read_recording(path, "fsa_softflex_2048", "raw", weight_kg=70)
     with pytest.raises(BadInput, match=r"1.txt line 3: reading 1 is '-3', negative"):
         read_frames(path, (64, 32))
-    (root / "subject-info-i.csv").unlink()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
-        read_real(root)
-    (root / "subject-info-i.csv").mkdir()
-    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
-        read_real(root)
     root = write_pmd_ii(tmp_path / "q")
     bad = next((root / "S1" / "Air_Mat").glob("*.txt"))
     rows = bad.read_text().splitlines()
     rows[4] = " ".join(["0"] * 26 + ["-0.5"])
     bad.write_text("\n".join(rows) + "\n")
     with pytest.raises(BadInput, match=rf"{bad.name} line 5: reading 27 is '-0.5', negative"):
+        read_real(root)
+
+
+def test_a_missing_subject_file_is_said_to_be_missing(tmp_path):
+    root = write_pmd_i(tmp_path / "p", subjects=(1,), postures=(1,))
+    (root / "subject-info-i.csv").unlink()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is missing; expected a text file"):
+        read_real(root)
+    (root / "subject-info-i.csv").mkdir()
+    with pytest.raises(BadInput, match=r"subject-info-i.csv is a folder; expected a text file"):
         read_real(root)

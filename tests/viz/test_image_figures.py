@@ -2,7 +2,6 @@
 the image named, colour bars in mmHg, the head end and the bed's sides named, site labels for
 people that do not overlap, a doubt about the image said over it, and no matplotlib warnings."""
 
-import warnings
 from types import SimpleNamespace
 
 import matplotlib
@@ -19,18 +18,6 @@ from pressurepose.viz.mesh import ACROSS_BED  # noqa: E402
 from pressurepose.viz.sites import site_figure, spread_labels  # noqa: E402
 
 GRID = custom_mat(rows=16, cols=8, pitch_row_m=0.1, pitch_col_m=0.1)  # 0.8 x 1.6 m
-
-
-@pytest.fixture
-def no_warnings():
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        yield
-
-
-def _drawn(fig):
-    fig.canvas.draw()
-    return fig.canvas.get_renderer()
 
 
 def _colour_bar_labels(fig):
@@ -64,10 +51,10 @@ def _overlap(a, b):
     return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
 
 
-def test_site_picture_labels_do_not_overlap_and_stay_in_the_picture(no_warnings):
+def test_site_picture_labels_do_not_overlap_and_stay_in_the_picture(no_warnings, drawn):
     fig = site_figure(_estimate(), 0)
     try:
-        renderer = _drawn(fig)
+        renderer = drawn(fig)
         ax = fig.axes[0]
         labels = [t for t in ax.texts if t.get_text()]
         assert {t.get_text().split("\n")[0] for t in labels} >= {"right hip (trochanter)", "right shoulder",
@@ -82,7 +69,7 @@ def test_site_picture_labels_do_not_overlap_and_stay_in_the_picture(no_warnings)
         plt.close(fig)
 
 
-def test_spread_labels_moves_only_labels_that_overlap_and_ties_each_moved_one_to_its_site():
+def test_spread_labels_moves_only_labels_that_overlap_and_ties_each_moved_one_to_its_site(drawn):
     fig, ax = plt.subplots(figsize=(3, 3))
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 1)
@@ -90,7 +77,7 @@ def test_spread_labels_moves_only_labels_that_overlap_and_ties_each_moved_one_to
     texts = [ax.text(x, y, "a long label", ha="center", va="center") for x, y in anchors]
     lines_before = len(ax.lines)
     spread_labels(ax, texts, anchors)
-    renderer = _drawn(fig)
+    renderer = drawn(fig)
     boxes = [t.get_window_extent(renderer) for t in texts]
     assert not _overlap(boxes[0], boxes[1])
     assert texts[2].get_position() == pytest.approx(anchors[2])  # alone: left where it was

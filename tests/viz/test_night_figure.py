@@ -2,7 +2,6 @@
 over hours, the posture band filling the recording, roll ticks named by posture, sites named for
 people in colours other than the alerts' red, legends off the data, and no matplotlib warnings."""
 
-import warnings
 
 import matplotlib
 
@@ -14,18 +13,6 @@ import pytest  # noqa: E402
 from pressurepose.body.sites import SITES, site_index  # noqa: E402
 from pressurepose.eval.monitor import Alert, MonitorConfig, Timeline, Turn  # noqa: E402
 from pressurepose.viz.monitor import clock, night_figure  # noqa: E402
-
-
-@pytest.fixture
-def no_warnings():
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        yield
-
-
-def _drawn(fig):
-    fig.canvas.draw()
-    return fig.canvas.get_renderer()
 
 
 def _night(hours=8.0, step_s=60.0):
@@ -52,11 +39,11 @@ def _night(hours=8.0, step_s=60.0):
                     longest_above_s=above, alerts=alerts, config=config)
 
 
-def test_night_plot_reads_hours_as_clock_time_names_sites_for_people_and_keeps_legends_off_the_data(no_warnings):
+def test_night_plot_reads_hours_as_clock_time_names_sites_for_people_and_keeps_legends_off_the_data(no_warnings, drawn):
     tl = _night()
     fig = night_figure(tl)
     try:
-        renderer = _drawn(fig)
+        renderer = drawn(fig)
         band, roll, sites = fig.axes[:3]
         assert "h:mm" in sites.get_xlabel()
         ticks = [t.get_text() for t in sites.get_xticklabels() if t.get_text()]
