@@ -2,7 +2,6 @@
 over hours, the posture band filling the recording, roll ticks named by posture, sites named for
 people in colours other than the alerts' red, legends off the data, and no matplotlib warnings."""
 
-
 import matplotlib
 
 matplotlib.use("Agg")
