@@ -103,3 +103,42 @@ def test_repair_sets_an_unreadable_manifest_aside_and_makes_the_dataset_in_the_s
     assert main(args + ["--repair"]) == 0
     assert len(DatasetReader(tmp_path / "d")) == 4
     assert len(list((tmp_path / "d").glob("manifest.json.corrupt-*"))) == 1
+
+
+def test_an_interrupted_generate_says_how_many_samples_it_keeps(tmp_path, capsys, monkeypatch):
+    """Ctrl-C during generate: the message counts the samples kept in finished shards and says that an
+    unfinished shard is made again, so a rerun that starts from 0 of a one-shard dataset is no surprise."""
+    import pressurepose.data.generate as gen
+
+    real = gen.generate
+
+    def first_shard_then_ctrl_c(config, out, **kw):
+        real(config, out, **{**kw, "only_shards": [0]})
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(gen, "generate", first_shard_then_ctrl_c)
+    args = ["generate", "--partition", "general", "--gender", "f", "--count", "10", "--shard-size", "4",
+            "--producer", "synthetic", "--out", str(tmp_path / "d"), "--no-progress"]
+    assert main(args) == 130
+    err = " ".join(capsys.readouterr().err.split())
+    assert "4 of the 10 samples" in err and "kept" in err and "4 samples here; --shard-size" in err
+    monkeypatch.setattr(gen, "generate", real)
+    assert main(args) == 0 and "made 2 shard(s), kept 1" in capsys.readouterr().out
+
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "train/a", "partition": "general", "gender": "f", "count": 3, "seed": 1},
+        {"name": "test/a", "partition": "general", "gender": "f", "count": 2, "seed": 2}]}))
+    calls = []
+
+    def second_dataset_interrupted(config, out, **kw):
+        calls.append(out)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(config, out, **kw)
+
+    monkeypatch.setattr(gen, "generate", second_dataset_interrupted)
+    assert main(["generate", "--recipe", str(recipe), "--producer", "synthetic", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 130
+    err = " ".join(capsys.readouterr().err.split())
+    assert "1 of the recipe's 2 datasets are complete; 0 of the 2 samples" in err
