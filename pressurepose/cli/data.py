@@ -212,7 +212,9 @@ def add_info_arguments(p: argparse.ArgumentParser) -> None:
                      "counts by partition and gender, rejection rates, pressure statistics; writes a PNG "
                      "of sample images and histograms.")
     p.add_argument("dir", help="dataset directory")
-    p.add_argument("--png", help="picture to write (default DIR/info.png)")
+    p.add_argument("--png", help="picture to write (default DIR/info.png); a folder of splits (a recipe's output: "
+                                 "train/, test/) gets one picture per split, its name after the split's: "
+                                 "info_train.png, info_test.png")
     p.add_argument("--examples", type=int, default=6, help="sample images in the picture (default 6)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the shard checksum check (default: every shard is read and checked; skip it for a "

@@ -1,6 +1,7 @@
 """The generate and info verbs, and the paper recipe."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -142,3 +143,22 @@ def test_an_interrupted_generate_says_how_many_samples_it_keeps(tmp_path, capsys
                  "--no-progress"]) == 130
     err = " ".join(capsys.readouterr().err.split())
     assert "1 of the recipe's 2 datasets are complete; 0 of the 2 samples" in err
+
+
+def test_info_on_a_recipe_folder_writes_one_picture_per_split_as_its_help_says(tmp_path, capsys):
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "train/a", "split": "train", "partition": "general", "gender": "f", "count": 2, "seed": 1},
+        {"name": "test/a", "split": "test", "partition": "general", "gender": "f", "count": 2, "seed": 2}]}))
+    assert main(["generate", "--recipe", str(recipe), "--producer", "synthetic", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
+    assert main(["info", str(tmp_path / "o"), "--png", str(tmp_path / "info.png")]) == 0
+    written = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert written == ["info_test.png", "info_train.png"]
+    with pytest.raises(SystemExit):
+        main(["info", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert all(name in help_text for name in written)
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    line = next(ln for ln in readme.splitlines() if "$pp info data/paper_small" in ln)
+    assert all(name in line for name in written)
