@@ -290,8 +290,8 @@ def run_infer(args) -> int:
     from pressurepose.viz.sites import save_site_figures
 
     paths = est.save(out, mesh_format=args.mesh_format)
-    paths += save_estimate_figures(est, out, max_figures=args.max_figures)
-    paths += save_site_figures(est, out, max_figures=args.max_figures)
+    paths += save_estimate_figures(est, out, max_figures=args.max_figures, progress=True)
+    paths += save_site_figures(est, out, max_figures=args.max_figures, progress=True)
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else "; the others blank or start-up frames"

@@ -152,8 +152,11 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert npz["vertices"].shape == (2, 192, 3)
     for name in ("mesh_000.ply", "mesh_001.ply", "estimate_000.png", "estimate_001.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
+    err = capsys.readouterr().err  # pictures take about a second each: a progress bar over them
+    assert "pictures: 100%" in err and "2/2" in err
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
                  "--out", str(tmp_path / "b"), "--mesh-format", "obj", "--max-figures", "0"]) == 0
+    assert "pictures" not in capsys.readouterr().err  # none drawn, no bar
     assert (tmp_path / "b" / "mesh_000.obj").exists() and not (tmp_path / "b" / "estimate_000.png").exists()
     b = json.loads((tmp_path / "b" / "estimate.json").read_text())["estimates"][0]
     np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
