@@ -295,7 +295,8 @@ def run_infer(args) -> int:
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else "; the others blank or start-up frames"
-        print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file} (counted from 0{left_out}), on the "
+        print(f"  {'frame' if len(est.frame) == 1 else 'frames'} {frame_ranges(est.frame)} of {args.pressure_file} "
+              f"(counted from 0{left_out}), on the "
               f"{args.mat} mat, "
               f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
     import numpy as np
