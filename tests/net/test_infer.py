@@ -12,7 +12,7 @@ from pressurepose.body.toy import toy_body_arrays
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.mat import custom_mat
-from pressurepose.net.checkpoint import gendered_body, save_model
+from pressurepose.net.checkpoint import gendered_body, load_model, save_model
 from pressurepose.net.infer import estimate, load_pressure
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
@@ -310,6 +310,10 @@ def test_a_gender_or_model_of_the_wrong_type_is_refused_by_name(model_path):
     for model in (3, {}, ["m.json"]):
         with pytest.raises(BadInput, match=r"^model is \w+; expected a model file"):
             estimate(good, "f", model=model)
+    # what load_model returns, passed whole: the message says which item to pass
+    with pytest.raises(BadInput, match=r"^model is tuple; .*load_model returns \(network, record\): pass "
+                                       r"load_model\(path\)\[0\], or the path itself"):
+        estimate(good, "f", model=load_model(model_path))
 
 
 def test_genders_stored_in_a_file_are_checked_naming_the_file(model_path, tmp_path, capsys):
