@@ -351,6 +351,7 @@ def test_ctrl_c_exits_130_and_leaves_nothing_half_written(tmp_path, capsys, monk
     code, err = run(["sample", "--partition", "general", "--gender", "f", "--count", 2, "--seed", 0, "--out", out],
                     capsys)
     assert code == 130 and "interrupted" in err and "Traceback" not in err
+    assert all(verb in err for verb in ("generate", "repress", "train", "simulate"))  # the verbs that resume (README)
     assert out.read_bytes() == b"previous good output"
     assert [p.name for p in tmp_path.iterdir()] == ["s.npz"]
 

@@ -52,3 +52,11 @@ def test_a_documented_command_parses(where, argv, monkeypatch):
             pytest.fail(f"{where}: `pressurepose {' '.join(argv)}` does not parse: {err.getvalue().strip()[-300:]}"
                         f" (exit {exc.code})")
     assert args.verb == argv[0]
+
+
+def test_the_readme_trains_at_full_speed_on_any_cpu():
+    """`--cpu-amp` trains 10x slower on a CPU without bf16 instructions: a README command a reader copies
+    does not carry it (the text says where it helps)."""
+    readme = [argv for where, argv in COMMANDS if where.startswith("README.md")]
+    trains = [argv for argv in readme if argv[0] == "train"]
+    assert trains and not any("--cpu-amp" in argv for argv in trains)

@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:  # files are written atomically: finished ones are kept, none is half-written
         print("\ninterrupted: files already written are complete, none is half-written "
-              "(generate, train and simulate resume when rerun)", file=sys.stderr)
+              "(generate, repress, train and simulate resume when rerun)", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into a reader that stopped (`| head`): quiet, as other tools
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -156,6 +156,9 @@ def run_generate(args: argparse.Namespace) -> int:
             print(f"error: {path}: {exc}\nfinished shards are kept; rerunning the same command resumes",
                   file=sys.stderr)
             return 1
+        except KeyboardInterrupt:
+            print("\n" + interrupted_line(path, config, done=i, of=len(jobs)), file=sys.stderr)
+            return 130
         m = report.manifest
         attempts = m.attempts
         rate = 100.0 * sum(m.rejections.values()) / attempts if attempts else 0.0
@@ -163,6 +166,22 @@ def run_generate(args: argparse.Namespace) -> int:
               f"shard(s), kept {report.skipped}, {report.retries} retried, rejected {rate:.1f}% "
               f"in {report.seconds:.1f} s")
     return 0
+
+
+def interrupted_line(path: Path, config, done: int = 0, of: int = 1) -> str:
+    """What an interrupted ``generate`` keeps, in words: the samples of ``path``'s finished shards
+    (a shard is written only when all of it is made) and, for a recipe, the datasets already made."""
+    from pressurepose.data.store import MANIFEST, Manifest
+
+    try:
+        kept = Manifest.load(path).samples_done if (path / MANIFEST).is_file() else 0
+    except (BadInput, OSError, ValueError):  # an unreadable manifest keeps nothing; the rerun says why
+        kept = 0
+    recipe = f"{done} of the recipe's {of} datasets are complete; " if of > 1 else ""
+    shard = min(config.shard_size, config.count)
+    return (f"interrupted: {recipe}{kept} of the {config.count} samples of {path} are in finished shards and are "
+            f"kept; rerunning the same command makes the rest. A shard ({shard} samples here; --shard-size) is "
+            f"written only once all of it is made, so the samples of an unfinished shard are made again")
 
 
 def _set_aside_unreadable_manifest(out: Path) -> None:
@@ -193,7 +212,9 @@ def add_info_arguments(p: argparse.ArgumentParser) -> None:
                      "counts by partition and gender, rejection rates, pressure statistics; writes a PNG "
                      "of sample images and histograms.")
     p.add_argument("dir", help="dataset directory")
-    p.add_argument("--png", help="picture to write (default DIR/info.png)")
+    p.add_argument("--png", help="picture to write (default DIR/info.png); a folder of splits (a recipe's output: "
+                                 "train/, test/) gets one picture per split, its name after the split's: "
+                                 "info_train.png, info_test.png")
     p.add_argument("--examples", type=int, default=6, help="sample images in the picture (default 6)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the shard checksum check (default: every shard is read and checked; skip it for a "

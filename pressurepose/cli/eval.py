@@ -153,7 +153,7 @@ def run_evaluate_real(args) -> int:
     net = resolve_model(args.model).to(device)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = evaluate_real(real, net, config)
+        result = evaluate_real(real, net, config, progress=True)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     s = result.summary

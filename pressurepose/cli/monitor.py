@@ -160,7 +160,7 @@ def run_monitor(args) -> int:
     plt.close(fig)
     dur = float(tl.summary()["duration_s"] or 0.0)
     print(f"{len(tl)} frames over {_clock(dur)} ({int((~occupied).sum())} without anybody on the mat); the network "
-          f"read {int(tl.estimated.sum())} of them; {elapsed:.0f} s")
+          f"read {int(tl.estimated.sum())} of them; done in {elapsed:.0f} s")
     doubtful = np.flatnonzero(tl.doubtful)
     if len(doubtful):
         first = int(doubtful[0])

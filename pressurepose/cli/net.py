@@ -70,7 +70,7 @@ def run_train(args) -> int:
     from pressurepose.files import check_output_path
     from pressurepose.net.checkpoint import body_model
     from pressurepose.net.data import load_dataset
-    from pressurepose.net.train import train
+    from pressurepose.net.train import train, validation_count
     from pressurepose.net.train_config import TrainConfig
 
     check_output_path(args.out, "--out", directory=True)
@@ -95,7 +95,9 @@ def run_train(args) -> int:
                   "(docs/training.md); drop --cpu-amp here", file=sys.stderr)
     female = body_model(args.female)
     male = female if args.male == args.female else body_model(args.male)
-    print(f"training on {len(data)} samples ({data.mat}, {data.grid.rows} x {data.grid.cols}) into {args.out}")
+    held = validation_count(len(data), config.val_fraction)
+    print(f"training on {len(data) - held} samples" + (f", validating on {held}" if held else "")
+          + f" ({data.mat}, {data.grid.rows} x {data.grid.cols}) into {args.out}")
     result = train(data, args.out, config, bodies=(female, male), progress=True)
     last = result.history[-1] if result.history else {}
     print(f"model: {result.model_path}"
@@ -288,12 +290,13 @@ def run_infer(args) -> int:
     from pressurepose.viz.sites import save_site_figures
 
     paths = est.save(out, mesh_format=args.mesh_format)
-    paths += save_estimate_figures(est, out, max_figures=args.max_figures)
-    paths += save_site_figures(est, out, max_figures=args.max_figures)
+    paths += save_estimate_figures(est, out, max_figures=args.max_figures, progress=True)
+    paths += save_site_figures(est, out, max_figures=args.max_figures, progress=True)
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else "; the others blank or start-up frames"
-        print(f"  frames {frame_ranges(est.frame)} of {args.pressure_file} (counted from 0{left_out}), on the "
+        print(f"  {'frame' if len(est.frame) == 1 else 'frames'} {frame_ranges(est.frame)} of {args.pressure_file} "
+              f"(counted from 0{left_out}), on the "
               f"{args.mat} mat, "
               f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
     import numpy as np

@@ -153,10 +153,11 @@ class RealEvaluation:
                 for i in range(len(self.rows["image"]))]
 
 
-def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEvalConfig()) -> RealEvaluation:
+def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEvalConfig(),
+                  progress: bool = False) -> RealEvaluation:
     """Estimates and per-estimate scores of the images of ``real`` that are scored (see
     :func:`model_inputs`). model: a PressureNet, a model path or None (the shipped model), as
-    :func:`pressurepose.net.infer.estimate`'s."""
+    :func:`pressurepose.net.infer.estimate`'s. progress: a progress bar over the batches."""
     from pressurepose.net.infer import estimate, resolve_model
 
     if not isinstance(real, RealImages):
@@ -175,7 +176,7 @@ def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEva
                        f"threshold {contact_mmhg:g} mmHg: the model would see empty mats and the scores would mean "
                        f"nothing{gain}")
     est = estimate(x[idx], genders, model=net, batch_size=config.batch_size, mirror=config.mirror,
-                   fit=config.fit)
+                   fit=config.fit, progress=progress)
     pred = posture_of(est.pose)
     h, m = body_stature_mass(net, est.betas, genders)
     rows = {"image": idx, "subject": r.subject[idx], "posture": r.posture[idx], "detail": r.detail[idx],

@@ -367,8 +367,11 @@ def resolve_model(model=None, bodies: tuple[str, str] | None = None) -> Pressure
     if isinstance(model, PressureNet):
         return model
     if model is not None and not isinstance(model, (str, os.PathLike)):
+        loaded = (isinstance(model, tuple) and len(model) == 2 and isinstance(model[0], PressureNet)
+                  and isinstance(model[1], dict))
+        hint = "; load_model returns (network, record): pass load_model(path)[0], or the path itself" if loaded else ""
         raise BadInput(f"model is {type(model).__name__}; expected a model file (.json, .safetensors or .pt), a "
-                       f"run folder, a loaded PressureNet, or None for the shipped model")
+                       f"run folder, a loaded PressureNet, or None for the shipped model{hint}")
     if bodies is not None and (isinstance(bodies, (str, bytes)) or not isinstance(bodies, (tuple, list))
                                or len(bodies) != 2 or not all(isinstance(b, (str, os.PathLike)) for b in bodies)):
         raise BadInput(f"bodies is {bodies!r:.80}; expected (female, male) body model specs: 'female' / 'male', 'toy' "

@@ -32,6 +32,7 @@ import hashlib
 import io
 import json
 import math
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -266,6 +267,18 @@ def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: 
     return net.run_mod2(x1, gender, out1, maps=maps, vertices=False)
 
 
+def validation_count(n: int, val_fraction: float) -> int:
+    """How many of ``n`` samples a run holds out for validation (the rest train)."""
+    return int(round(val_fraction * n))
+
+
+def resume_line(out_dir: Path, history: list, config: TrainConfig) -> str:
+    """'resuming the run in OUT: Mod1 3 of 6 epochs done, Mod2 0 of 3' from a saved state's history."""
+    done = [sum(1 for r in history if isinstance(r, dict) and r.get("stage") == stage) for stage in (1, 2)]
+    return (f"resuming the run in {out_dir}: Mod1 {done[0]} of {config.epochs_mod1} epochs done, Mod2 {done[1]} of "
+            f"{config.epochs_mod2} (log.csv has each epoch's loss)")
+
+
 def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
           bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatSpec | None = None,
           progress: bool = False) -> TrainResult:
@@ -274,7 +287,8 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     data: a :class:`~pressurepose.net.data.LoadedData` (:func:`~pressurepose.net.data.load_dataset`:
     a dataset or a training pack, on its own mat) or a mapping of arrays (the module docstring).
     bodies: (female, male) BodyModels (default the shipped ones). grid: the mat the images are on
-    (default: a LoadedData's own, else the BodiTrak BT-3510).
+    (default: a LoadedData's own, else the BodiTrak BT-3510). progress: a progress bar per epoch,
+    and a line on stderr saying how far a run it resumes had gone.
     """
     from pressurepose.files import check_output_path
 
@@ -304,7 +318,7 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     data = as_training_data(data, grid)
     device = resolve_device(config.device)
     n = data["pressure"].shape[0]
-    n_val = int(round(config.val_fraction * n))
+    n_val = validation_count(n, config.val_fraction)
     if n_val >= n:
         raise BadInput(f"val_fraction {config.val_fraction} of {n} sample(s) holds out {n_val}, which leaves none to "
                        f"train on; use a smaller fraction or more samples")
@@ -359,6 +373,8 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     amp_dtype = (torch.bfloat16 if device.type == "cpu" or (use_amp and torch.cuda.is_bf16_supported())
                  else torch.float16)
     history = list(record["history"]) if record else []
+    if record and progress:
+        print(resume_line(out_dir, history, config), file=sys.stderr)
     out_dir.mkdir(parents=True, exist_ok=True)  # only now: a refusal above writes nothing
     logger = _Logger(out_dir, history)
     resume_stage, resume_epoch = (record["stage"], record["epoch"] + 1) if record else (1, 0)

@@ -67,15 +67,17 @@ def estimate_figure(est: Estimate, i: int = 0):
     return fig
 
 
-def save_numbered_figures(out_dir: str | Path, prefix: str, count: int, draw) -> list[Path]:
+def save_numbered_figures(out_dir: str | Path, prefix: str, count: int, draw, progress: str = "") -> list[Path]:
     """Write ``PREFIX000.png``... : ``draw(i)`` for i < ``count`` into ``out_dir``, removing numbered
-    pictures of the same prefix an earlier, longer estimate left there. Returns the paths written."""
+    pictures of the same prefix an earlier, longer estimate left there. Returns the paths written.
+    progress: the label of a progress bar over the pictures (about a second each); "" for none."""
     import matplotlib.pyplot as plt
+    from tqdm import tqdm
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for i in range(count):
+    for i in tqdm(range(count), desc=progress, unit="picture", disable=not progress or not count):
         p = out / f"{prefix}{i:03d}.png"
         fig = draw(i)
         save_figure_atomic(fig, p, dpi=110)
@@ -85,7 +87,10 @@ def save_numbered_figures(out_dir: str | Path, prefix: str, count: int, draw) ->
     return paths
 
 
-def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
+def save_estimate_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16,
+                          progress: bool = False) -> list[Path]:
     """Write ``estimate_000.png``... for the first ``max_figures`` images of ``est`` into ``out_dir``,
-    removing numbered pictures an earlier estimate left there. Returns the paths written."""
-    return save_numbered_figures(out_dir, "estimate_", min(len(est), max_figures), lambda i: estimate_figure(est, i))
+    removing numbered pictures an earlier estimate left there. Returns the paths written.
+    progress: a progress bar over the pictures."""
+    return save_numbered_figures(out_dir, "estimate_", min(len(est), max_figures), lambda i: estimate_figure(est, i),
+                                 progress="pictures" if progress else "")

@@ -158,9 +158,11 @@ def site_figure(est: Estimate, i: int = 0, threshold_mmhg: float = THRESHOLD_MMH
     return fig
 
 
-def save_site_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16) -> list[Path]:
+def save_site_figures(est: Estimate, out_dir: str | Path, max_figures: int = 16, progress: bool = False) -> list[Path]:
     """Write ``sites_000.png``... for the first ``max_figures`` images of an estimate with site
-    loads into ``out_dir``, removing numbered site pictures an earlier estimate left there."""
+    loads into ``out_dir``, removing numbered site pictures an earlier estimate left there.
+    progress: a progress bar over the pictures."""
     count = min(len(est), max_figures) if est.sites is not None else 0
-    return save_numbered_figures(out_dir, "sites_", count, lambda i: site_figure(est, i))
+    return save_numbered_figures(out_dir, "sites_", count, lambda i: site_figure(est, i),
+                                 progress="site pictures" if progress else "")
 

@@ -1,6 +1,7 @@
 """The generate and info verbs, and the paper recipe."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -103,3 +104,61 @@ def test_repair_sets_an_unreadable_manifest_aside_and_makes_the_dataset_in_the_s
     assert main(args + ["--repair"]) == 0
     assert len(DatasetReader(tmp_path / "d")) == 4
     assert len(list((tmp_path / "d").glob("manifest.json.corrupt-*"))) == 1
+
+
+def test_an_interrupted_generate_says_how_many_samples_it_keeps(tmp_path, capsys, monkeypatch):
+    """Ctrl-C during generate: the message counts the samples kept in finished shards and says that an
+    unfinished shard is made again, so a rerun that starts from 0 of a one-shard dataset is no surprise."""
+    import pressurepose.data.generate as gen
+
+    real = gen.generate
+
+    def first_shard_then_ctrl_c(config, out, **kw):
+        real(config, out, **{**kw, "only_shards": [0]})
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(gen, "generate", first_shard_then_ctrl_c)
+    args = ["generate", "--partition", "general", "--gender", "f", "--count", "10", "--shard-size", "4",
+            "--producer", "synthetic", "--out", str(tmp_path / "d"), "--no-progress"]
+    assert main(args) == 130
+    err = " ".join(capsys.readouterr().err.split())
+    assert "4 of the 10 samples" in err and "kept" in err and "4 samples here; --shard-size" in err
+    monkeypatch.setattr(gen, "generate", real)
+    assert main(args) == 0 and "made 2 shard(s), kept 1" in capsys.readouterr().out
+
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "train/a", "partition": "general", "gender": "f", "count": 3, "seed": 1},
+        {"name": "test/a", "partition": "general", "gender": "f", "count": 2, "seed": 2}]}))
+    calls = []
+
+    def second_dataset_interrupted(config, out, **kw):
+        calls.append(out)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(config, out, **kw)
+
+    monkeypatch.setattr(gen, "generate", second_dataset_interrupted)
+    assert main(["generate", "--recipe", str(recipe), "--producer", "synthetic", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 130
+    err = " ".join(capsys.readouterr().err.split())
+    assert "1 of the recipe's 2 datasets are complete; 0 of the 2 samples" in err
+
+
+def test_info_on_a_recipe_folder_writes_one_picture_per_split_as_its_help_says(tmp_path, capsys):
+    recipe = tmp_path / "r.json"
+    recipe.write_text(json.dumps({"format": "pressurepose-recipe", "entries": [
+        {"name": "train/a", "split": "train", "partition": "general", "gender": "f", "count": 2, "seed": 1},
+        {"name": "test/a", "split": "test", "partition": "general", "gender": "f", "count": 2, "seed": 2}]}))
+    assert main(["generate", "--recipe", str(recipe), "--producer", "synthetic", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
+    assert main(["info", str(tmp_path / "o"), "--png", str(tmp_path / "info.png")]) == 0
+    written = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert written == ["info_test.png", "info_train.png"]
+    with pytest.raises(SystemExit):
+        main(["info", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert all(name in help_text for name in written)
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    line = next(ln for ln in readme.splitlines() if "$pp info data/paper_small" in ln)
+    assert all(name in line for name in written)

@@ -358,7 +358,9 @@ def test_frames_that_do_not_look_like_a_person_lying_are_marked(tmp_path, capsys
     out = tmp_path / "out"
     assert main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender",
                  "f", "--fps", "1", "--out", str(out)]) == 0
-    err = capsys.readouterr().err
+    out_text, err = capsys.readouterr()
+    assert re.search(r"^150 frames over 0:02:30 \(30 without anybody on the mat\); the network read \d+ of them; "
+                     r"done in \d+ s$", out_text, re.M)  # what the seconds are
     assert "warning: 10 frame(s) do not look like a person lying on the mat, first frame 70 at 0:01:10" in err
     assert "sensor noise" in err
     rows = (out / "timeline.csv").read_text().splitlines()

@@ -58,7 +58,7 @@ def test_contact_iou():
     np.testing.assert_allclose(ps.contact_iou(a, b), [1 / 3, 1.0])
 
 
-def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
+def test_evaluate_real_verb_on_a_labelled_folder(tmp_path, capsys):
     from pressurepose.cli import main
     from pressurepose.net.infer import DEFAULT_MODEL
     from tests.data.realfolders import body_image, write_labelled
@@ -71,6 +71,7 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path):
                             weights=[60, 70, 80, 90], genders=["f", "m", "f", "m"])
     out = tmp_path / "out"
     assert main(["evaluate-real", str(folder), "--out", str(out)]) == 0
+    assert "batch" in capsys.readouterr().err  # a progress bar while the network reads the images
     m = json.loads((out / "metrics.json").read_text())
     assert m["n_images"] == 4 and m["n_estimates"] == 4 and m["layout"] == "labelled"
     rows = json.loads((out / "estimates.json").read_text())["rows"]

@@ -41,3 +41,19 @@ def test_train_warns_when_cpu_amp_meets_a_cpu_without_bf16(tmp_path, capsys, mon
         monkeypatch.setattr(train_module, "cpu_bf16", lambda has=has: has)
         assert main(args + ["--out", str(tmp_path / f"run_{has}")]) == 0
         assert ("without bf16 instructions" in capsys.readouterr().err) is warned
+
+
+def test_infer_names_one_frame_of_a_recording_in_the_singular(tmp_path, capsys):
+    import pytest
+
+    from pressurepose.net.infer import DEFAULT_MODEL
+    from tests.data.realfolders import body_image
+
+    if not DEFAULT_MODEL.is_file():
+        pytest.skip("no shipped model")
+    np.save(tmp_path / "one.npy", body_image(64, 32))
+    np.save(tmp_path / "two.npy", np.stack([body_image(64, 32, seed=s) for s in (1, 2)]))
+    for name, said in (("one.npy", "  frame 0 of "), ("two.npy", "  frames 0-1 of ")):
+        assert main(["infer", str(tmp_path / name), "--mat", "fsa_softflex_2048", "--units", "raw", "--weight-kg", "70",
+                     "--gender", "f", "--out", str(tmp_path / name[:3]), "--max-figures", "0"]) == 0
+        assert said + str(tmp_path / name) in capsys.readouterr().out

@@ -12,7 +12,7 @@ from pressurepose.body.toy import toy_body_arrays
 from pressurepose.cli import main
 from pressurepose.errors import BadInput
 from pressurepose.mat import custom_mat
-from pressurepose.net.checkpoint import gendered_body, save_model
+from pressurepose.net.checkpoint import gendered_body, load_model, save_model
 from pressurepose.net.infer import estimate, load_pressure
 from pressurepose.net.model import NetConfig, PressureNet
 from pressurepose.net.outputs import OutputConfig
@@ -152,8 +152,11 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert npz["vertices"].shape == (2, 192, 3)
     for name in ("mesh_000.ply", "mesh_001.ply", "estimate_000.png", "estimate_001.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
+    err = capsys.readouterr().err  # pictures take about a second each: a progress bar over them
+    assert "pictures: 100%" in err and "2/2" in err
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
                  "--out", str(tmp_path / "b"), "--mesh-format", "obj", "--max-figures", "0"]) == 0
+    assert "pictures" not in capsys.readouterr().err  # none drawn, no bar
     assert (tmp_path / "b" / "mesh_000.obj").exists() and not (tmp_path / "b" / "estimate_000.png").exists()
     b = json.loads((tmp_path / "b" / "estimate.json").read_text())["estimates"][0]
     np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
@@ -307,6 +310,10 @@ def test_a_gender_or_model_of_the_wrong_type_is_refused_by_name(model_path):
     for model in (3, {}, ["m.json"]):
         with pytest.raises(BadInput, match=r"^model is \w+; expected a model file"):
             estimate(good, "f", model=model)
+    # what load_model returns, passed whole: the message says which item to pass
+    with pytest.raises(BadInput, match=r"^model is tuple; .*load_model returns \(network, record\): pass "
+                                       r"load_model\(path\)\[0\], or the path itself"):
+        estimate(good, "f", model=load_model(model_path))
 
 
 def test_genders_stored_in_a_file_are_checked_naming_the_file(model_path, tmp_path, capsys):

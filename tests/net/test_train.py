@@ -198,3 +198,31 @@ def test_train_refuses_arguments_of_the_wrong_kind_and_writes_nothing(tmp_path):
         with pytest.raises(BadInput, match=message):
             train(*args, **kwargs)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_the_train_verb_says_what_it_trains_on_and_how_far_a_resumed_run_had_gone(tmp_path, capsys, monkeypatch):
+    from pressurepose.cli import main
+    from tests.net.synth import write_toy_dataset
+
+    write_toy_dataset(tmp_path / "data", n=4)
+    args = ["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "run"), "--epochs-mod1", "2",
+            "--epochs-mod2", "1", "--batch-size", "2", "--val-fraction", "0.25", "--female", "toy", "--male", "toy"]
+    real_save = train_mod._save_state
+
+    def save_then_die(*a, **kw):
+        real_save(*a, **kw)
+        raise KeyboardInterrupt  # after Mod1's first epoch
+
+    monkeypatch.setattr(train_mod, "_save_state", save_then_die)
+    assert main(args) == 130
+    out, err = capsys.readouterr()
+    assert "training on 3 samples, validating on 1 " in out and "resuming" not in err
+    monkeypatch.setattr(train_mod, "_save_state", real_save)
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert f"resuming the run in {tmp_path / 'run'}: Mod1 1 of 2 epochs done, Mod2 0 of 1" in err
+    assert main(args) == 0  # a finished run says so too
+    assert "Mod1 2 of 2 epochs done, Mod2 1 of 1" in capsys.readouterr().err
+    everything = [a if a != "0.25" else "0" for a in args] + ["--out", str(tmp_path / "all")]  # no validation
+    assert main(everything) == 0
+    assert "training on 4 samples (" in capsys.readouterr().out
