@@ -295,10 +295,14 @@ def run_infer(args) -> int:
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else "; the others blank or start-up frames"
+        from pressurepose.data.readers.recording import resolve_mat
+
+        g = net.config.grid
+        own = resolve_mat(args.mat)[0]
+        same = (own.rows, own.cols, own.pitch_row_m, own.pitch_col_m) == (g.rows, g.cols, g.pitch_row_m, g.pitch_col_m)
         print(f"  {'frame' if len(est.frame) == 1 else 'frames'} {frame_ranges(est.frame)} of {args.pressure_file} "
-              f"(counted from 0{left_out}), on the "
-              f"{args.mat} mat, "
-              f"resampled onto the model's {net.config.grid.rows} x {net.config.grid.cols}")
+              f"(counted from 0{left_out}), on the {args.mat} mat, "
+              + ("the model's own" if same else f"resampled onto the model's {g.rows} x {g.cols}"))
     import numpy as np
 
     from pressurepose.eval.posture import body_stature_mass, posture_of

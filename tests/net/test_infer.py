@@ -274,12 +274,20 @@ def test_estimate_and_infer_take_a_raw_recording_on_another_mat(model_path, tmp_
                  "70", "--gender", "m", "--model", str(model_path), "--out", str(out), "--max-figures", "2"]) == 0
     printed = capsys.readouterr().out
     assert "7 estimate(s)" in printed and f"... and 2 more (all in {out / 'estimate.json'})" in printed
-    assert f"frames 0-6 of {tmp_path / 'rec.npy'} (counted from 0), on the boditrak_bt3510 mat" in printed
+    assert (f"frames 0-6 of {tmp_path / 'rec.npy'} (counted from 0), on the boditrak_bt3510 mat, resampled onto the "
+            f"model's 16 x 16") in printed
     saved = json.loads((out / "estimate.json").read_text())["estimates"]
     assert [r["frame"] for r in saved] == list(range(7))
     np.testing.assert_allclose([r["joints"] for r in saved], est.joints, atol=1e-5)
     assert sorted(p.name for p in out.glob("*.png")) == ["estimate_000.png", "estimate_001.png", "sites_000.png",
                                                          "sites_001.png"]
+    # a recording on the model's own mat (a mat.json of its grid) is said to be on it, not resampled
+    (tmp_path / "mat.json").write_text(json.dumps({"rows": 16, "cols": 16, "pitch_m": 0.125, "pitch_col_m": 0.0625}))
+    np.save(tmp_path / "own.npy", np.stack([body_image(16, 16, seed=1, scale=2.0)]))
+    assert main(["infer", str(tmp_path / "own.npy"), "--mat", str(tmp_path / "mat.json"), "--units", "mmHg",
+                 "--gender", "m", "--model", str(model_path), "--out", str(tmp_path / "own"), "--max-figures", "0"]) == 0
+    printed = capsys.readouterr().out
+    assert "mat.json mat, the model's own" in printed and "resampled" not in printed
     # without a weight or a gain, with --units but no --mat, or --mat without --units: a clear error
     for extra, said in ((["--mat", "boditrak_bt3510", "--units", "raw"], "weight in kg (--weight-kg"),
                         (["--units", "raw", "--weight-kg", "70"], "give --mat too"),
