@@ -279,6 +279,13 @@ def resume_line(out_dir: Path, history: list, config: TrainConfig) -> str:
             f"{config.epochs_mod2} (log.csv has each epoch's loss)")
 
 
+def epoch_line(row: dict, epochs: int) -> str:
+    """'mod1 epoch 3/48: loss 0.412, joints 14.2 cm (validation MPJPE 15.1 cm), 35 s' from a log row."""
+    val = f" (validation MPJPE {row['val_mpjpe_cm']:.1f} cm)" if "val_mpjpe_cm" in row else ""
+    return (f"mod{row['stage']} epoch {row['epoch'] + 1}/{epochs}: loss {row['train_loss']:.4g}, joints "
+            f"{row['train_joints_cm']:.1f} cm{val}, {row['seconds']:.0f} s")
+
+
 def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
           bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatSpec | None = None,
           progress: bool = False) -> TrainResult:
@@ -287,8 +294,8 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     data: a :class:`~pressurepose.net.data.LoadedData` (:func:`~pressurepose.net.data.load_dataset`:
     a dataset or a training pack, on its own mat) or a mapping of arrays (the module docstring).
     bodies: (female, male) BodyModels (default the shipped ones). grid: the mat the images are on
-    (default: a LoadedData's own, else the BodiTrak BT-3510). progress: a progress bar per epoch,
-    and a line on stderr saying how far a run it resumes had gone.
+    (default: a LoadedData's own, else the BodiTrak BT-3510). progress: a progress bar per epoch, a
+    line on stderr after each (:func:`epoch_line`), and one saying how far a run it resumes had gone.
     """
     from pressurepose.files import check_output_path
 
@@ -441,6 +448,8 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
                     row.update(_validate(net, stage, data, val_idx, q_true, c_true, scales, config, device))
                 logger.write(row)
                 history.append(row)
+                if progress:
+                    print(epoch_line(row, epochs), file=sys.stderr)
                 if (epoch + 1) % config.save_every == 0 or epoch == epochs - 1:
                     _save_state(out_dir, net, opt, {"identity": identity, "stage": stage, "epoch": epoch,
                                                     "history": history})

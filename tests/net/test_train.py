@@ -1,5 +1,6 @@
 import csv
 import json
+import re
 
 import pytest
 import torch
@@ -221,6 +222,10 @@ def test_the_train_verb_says_what_it_trains_on_and_how_far_a_resumed_run_had_gon
     assert main(args) == 0
     out, err = capsys.readouterr()
     assert f"resuming the run in {tmp_path / 'run'}: Mod1 1 of 2 epochs done, Mod2 0 of 1" in err
+    # a line per epoch it trains (not the one done before), each with its validation MPJPE
+    epochs = [ln for ln in err.splitlines() if re.match(r"mod\d epoch \d/\d: loss ", ln)]
+    assert [ln.split(":")[0] for ln in epochs] == ["mod1 epoch 2/2", "mod2 epoch 1/1"]
+    assert all(re.search(r"joints \d+\.\d cm \(validation MPJPE \d+\.\d cm\), \d+ s$", ln) for ln in epochs)
     assert main(args) == 0  # a finished run says so too
     assert "Mod1 2 of 2 epochs done, Mod2 1 of 1" in capsys.readouterr().err
     everything = [a if a != "0.25" else "0" for a in args] + ["--out", str(tmp_path / "all")]  # no validation
