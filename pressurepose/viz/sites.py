@@ -24,7 +24,7 @@ def spread_labels(ax, texts, anchors, gap_px: float = 4.0) -> None:
     off its anchor gets a thin line back to it. Call it once the layout is final."""
     if not texts:
         return
-    ax.figure.draw_without_rendering()  # the axes take their final place (an equal aspect moves them)
+    ax.apply_aspect()  # the axes take their final place (an equal aspect moves them), without a whole draw
     renderer = ax.figure.canvas.get_renderer()
     frame = ax.get_window_extent(renderer)
     boxes = [t.get_window_extent(renderer) for t in texts]
