@@ -126,3 +126,19 @@ def test_a_doubtful_image_says_so_over_its_pictures(draw):
             assert ("too little of the mat is loaded" in title) == doubtful
         finally:
             plt.close(fig)
+
+
+def test_a_picture_is_drawn_once_when_saved_after_tight_layout(tmp_path):
+    from pressurepose.viz.estimate import save_numbered_figures
+
+    draws = []
+
+    def draw(i):
+        fig, ax = plt.subplots()
+        ax.plot([0, 1], [0, 1])
+        fig.tight_layout()
+        fig.canvas.mpl_connect("draw_event", lambda event: draws.append(event))
+        return fig
+
+    (path,) = save_numbered_figures(tmp_path, "one_", 1, draw)
+    assert path.stat().st_size > 0 and len(draws) == 1
