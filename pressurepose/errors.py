@@ -55,6 +55,14 @@ def require_path(name: str, v) -> Path:
     return Path(v)
 
 
+def require_bool(name: str, v) -> bool:
+    """``v`` as a bool; BadInput naming ``name`` unless it is True or False (a numpy bool too): a
+    flag given as 'no', 1 or None would otherwise read as true or false by accident."""
+    if not isinstance(v, (bool, np.bool_)):
+        raise BadInput(f"{name} is {v!r}; expected True or False")
+    return bool(v)
+
+
 def require_whole(name: str, v, lo: int, hi: int | None = None) -> None:
     """BadInput unless ``v`` is a whole number (an int or numpy integer, not a bool) from ``lo`` to
     ``hi``, or ``lo`` and up when ``hi`` is None."""

@@ -46,3 +46,15 @@ def test_require_between_takes_the_closed_interval_and_refuses_the_rest():
     for v in (0.99, 4.01, float("nan"), float("inf"), -float("inf"), True, "2", None):
         with pytest.raises(BadInput, match=r"^f is .*; expected a number from 1 to 4$"):
             require_between("f", v, 1, 4)
+
+
+def test_require_bool_takes_true_and_false_only():
+    import numpy as np
+    import pytest
+
+    from pressurepose.errors import BadInput, require_bool
+
+    assert require_bool("flag", True) is True and require_bool("flag", np.bool_(False)) is False
+    for v in ("no", 1, None):
+        with pytest.raises(BadInput, match=r"^flag is .*; expected True or False$"):
+            require_bool("flag", v)

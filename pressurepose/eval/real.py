@@ -23,7 +23,7 @@ import numpy as np
 
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.resample import MMHG_PA
-from pressurepose.errors import BadInput, require_whole
+from pressurepose.errors import BadInput, require_bool, require_whole
 from pressurepose.eval.posture import (
     body_stature_mass,
     confusion,
@@ -74,8 +74,7 @@ class RealEvalConfig:
             raise BadInput(f"weak_fraction is {self.weak_fraction!r}; expected a share in [0, 1)")
         require_whole("batch_size", self.batch_size, 1)
         for name in ("force_gender", "mirror"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise BadInput(f"{name} is {getattr(self, name)!r}; expected True or False")
+            require_bool(name, getattr(self, name))
 
 
 def weak_images(real: RealImages, fraction: float) -> np.ndarray:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pressurepose.errors import BadInput, require_whole
+from pressurepose.errors import BadInput, require_bool, require_whole
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
 from pressurepose.net.data import LoadedData, load_dataset
@@ -73,8 +73,7 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
         raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
                        f"({net.config.grid.rows} x {net.config.grid.cols})")
     fitting = fit_config(fit)
-    if not isinstance(mirror, (bool, np.bool_)):  # "no" would be true
-        raise BadInput(f"mirror is {mirror!r}; expected True or False")
+    require_bool("mirror", mirror)
     net.eval()
     device = next(net.parameters()).device
     t = data.tensors

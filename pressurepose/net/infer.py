@@ -27,7 +27,7 @@ import torch
 from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
-from pressurepose.errors import BadInput, finite_float32, require_whole
+from pressurepose.errors import BadInput, finite_float32, require_bool, require_whole
 from pressurepose.files import (
     atomic_write,
     check_output_path,
@@ -460,8 +460,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     import warnings
 
     fitting = fit_config(fit)
-    if not isinstance(mirror, (bool, np.bool_)):  # "no" would be true
-        raise BadInput(f"mirror is {mirror!r}; expected True or False")
+    require_bool("mirror", mirror)
     net = resolve_model(model, bodies)
     frame = None
     if isinstance(pressure, RealImages) or mat is not None:

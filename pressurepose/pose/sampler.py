@@ -94,7 +94,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from pressurepose.errors import BadInput, require_whole
+from pressurepose.errors import BadInput, require_bool, require_whole
 from pressurepose.pose.config import SamplerConfig
 from pressurepose.pose.partitions import ARM_BINS, LEG_BINS, PARTITIONS, Partition, get_partition
 from pressurepose.pose.posefile import PoseFile
@@ -195,9 +195,7 @@ def _draw(part: Partition, gender: str, rngs, limbs_on_bed: bool, body, config: 
 
     if not isinstance(config, SamplerConfig):
         raise BadInput(f"config is {type(config).__name__}; expected a SamplerConfig")
-    if not isinstance(limbs_on_bed, (bool, np.bool_)):  # "no" would be true
-        raise BadInput(f"limbs_on_bed is {limbs_on_bed!r}; expected True or False")
-    limbs_on_bed = bool(limbs_on_bed)
+    limbs_on_bed = require_bool("limbs_on_bed", limbs_on_bed)
     if body is None:
         body = BodyModel(GENDER_NAMES[gender])
     elif not isinstance(body, BodyModel):
