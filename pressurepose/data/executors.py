@@ -36,29 +36,57 @@ OnResult = Callable[[PartResult], None]
 OnFailure = Callable[[WorkUnit, str], None]
 
 
-def run_units(units: Sequence[WorkUnit], *, workers: int = 1, ray_address: str | None = None,
+def run_units(units: Sequence[WorkUnit], *, workers: int | str = 1, ray_address: str | None = None,
               retries: int = 2, on_result: OnResult, on_progress: Progress | None = None,
               on_failure: OnFailure | None = None) -> int:
-    """Run ``units``; returns how many retries were needed."""
+    """Run ``units`` (``workers``: local processes, at most one per unit; see :func:`resolve_workers`);
+    returns how many retries were needed."""
     check_executor(workers, ray_address, retries)
     if not units:
         return 0
     if ray_address:
         return _run_ray(units, ray_address, retries, on_result, on_failure)
+    workers = resolve_workers(workers, len(units))
     if workers == 1:
         return _run_here(units, retries, on_result, on_progress, on_failure)
     return _run_pool(units, workers, retries, on_result, on_progress, on_failure)
 
 
-def check_executor(workers: int, ray_address: str | None, retries: int) -> None:
-    """BadInput for settings that cannot run (checked before anything is written)."""
-    whole = lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, bool)  # noqa: E731
-    if not whole(workers) or workers < 1:
-        raise BadInput(f"workers = {workers!r}; expected at least 1")
-    if not whole(retries) or retries < 0:
+AUTO = "auto"  # as many workers as this process may use cores, and no more than there is work for
+
+
+def _whole(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def check_executor(workers: int | str, ray_address: str | None, retries: int) -> None:
+    """BadInput for settings that cannot run (checked before anything is written). ``workers``: a
+    whole number of at least 1, or ``"auto"``."""
+    if workers != AUTO and (not _whole(workers) or workers < 1):
+        raise BadInput(f"workers = {workers!r}; expected at least 1, or {AUTO!r}")
+    if not _whole(retries) or retries < 0:
         raise BadInput(f"retries = {retries!r}; expected 0 or more")
     if ray_address:
         _import_ray()
+
+
+def available_cores() -> int:
+    """CPU cores this process may run on: its affinity set where the system keeps one (Linux), else
+    the machine's count."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # no affinity sets (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def resolve_workers(workers: int | str, samples: int) -> int:
+    """Local worker processes to make ``samples`` samples with (1: in this process). ``workers``: a
+    number, or ``"auto"`` for :func:`available_cores`; either is capped at ``samples``, since a sample
+    is the smallest part of a shard a worker is handed (:func:`~pressurepose.data.pipeline.plan_units`),
+    so further workers would have nothing to do."""
+    check_executor(workers, None, 0)
+    wanted = available_cores() if workers == AUTO else int(workers)
+    return max(1, min(wanted, samples))
 
 
 class _Retries:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.data.executors import check_executor, run_units
+from pressurepose.data.executors import check_executor, resolve_workers, run_units
 from pressurepose.data.pipeline import (
     ShardAssembler,
     check_shards,
@@ -34,17 +34,21 @@ class RunReport:
     seconds: float
     retries: int
     unit_cpu_seconds: float  # CPU time spent making this run's shards, summed over workers
+    workers: int = 1   # local worker processes used (1: this process; 0: the units ran on Ray)
 
 
-def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray_address: str | None = None,
+def generate(config: GenerationConfig, out: str | Path, *, workers: int | str = 1, ray_address: str | None = None,
              retries: int = 2, progress: bool = True, repair: bool = False,
              only_shards: list[int] | None = None) -> RunReport:
     """Make (or finish) the dataset of ``config`` in ``out``; rerunning continues where it stopped.
 
-    workers: local processes (1 = in this process); ray_address: run on Ray instead (``"local"`` starts
-    a local instance); retries: extra tries for a failing unit before GenerationError; repair: set
-    corrupt shards aside and remake them; only_shards: make just these shards (the rest may stay
-    missing). Returns a :class:`RunReport`.
+    workers: local processes (1 = in this process), or ``"auto"``: one per core this process may use;
+    either is capped at the samples still to make, and the dataset is the same for any number. From a
+    script, more than one needs the script's work under ``if __name__ == "__main__":`` (each worker
+    process imports the script first, as multiprocessing does). ray_address: run on Ray
+    instead (``"local"`` starts a local instance); retries: extra tries for a failing unit before
+    GenerationError; repair: set corrupt shards aside and remake them; only_shards: make just these
+    shards (the rest may stay missing). Returns a :class:`RunReport`.
     """
     from pressurepose.data.progress import ProgressBar
 
@@ -80,9 +84,10 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
                       desc=f"{config.partition}/{config.gender}{'/plo' if config.limbs_on_bed else ''}")
     assemble = ShardAssembler(lambda r: (commit_result(out, manifest, r), bar.unit_done(r),
                                          unit_cpu.append(r.cpu_seconds)))
-    parallel = 1 if ray_address else workers  # Ray: one unit per shard
+    to_make = sum(len(config.shard_range(k)) for k in todo)
+    used = 0 if ray_address else resolve_workers(workers, to_make)  # Ray: one unit per shard
     try:
-        retried = run_units(plan_units(config, todo, parallel), workers=workers, ray_address=ray_address,
+        retried = run_units(plan_units(config, todo, used), workers=max(used, 1), ray_address=ray_address,
                             retries=retries, on_result=assemble, on_progress=bar.attempt,
                             on_failure=bar.unit_failed)
     finally:
@@ -90,4 +95,4 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int = 1, ray
     if len(manifest.shards) == config.num_shards and not manifest.complete:
         manifest.complete = True
         manifest.save(out)
-    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried, sum(unit_cpu))
+    return RunReport(out, manifest, len(todo), skipped, time.perf_counter() - t0, retried, sum(unit_cpu), used)

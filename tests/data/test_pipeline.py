@@ -210,3 +210,34 @@ def test_generate_refuses_arguments_of_the_wrong_kind_before_writing(tmp_path):
             generate(*args, progress=False, **kwargs)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
     assert generate(c, tmp_path / "g", only_shards=(np.int64(0),), progress=False).made == 1
+
+
+def test_auto_workers_are_the_cores_this_process_may_use_and_no_more_than_the_samples(monkeypatch):
+    from pressurepose.data import executors
+    from pressurepose.errors import BadInput
+
+    monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
+    assert executors.available_cores() == 8
+    assert [executors.resolve_workers("auto", n) for n in (100, 8, 4, 1, 0)] == [8, 8, 4, 1, 1]
+    assert [executors.resolve_workers(3, n) for n in (100, 2)] == [3, 2]
+    monkeypatch.delattr(executors.os, "sched_getaffinity", raising=False)  # macOS, Windows
+    monkeypatch.setattr(executors.os, "cpu_count", lambda: 6)
+    assert executors.resolve_workers("auto", 100) == 6
+    for bad in (0, "2", "many", 1.5, True):
+        with pytest.raises(BadInput, match="expected at least 1, or 'auto'"):
+            executors.resolve_workers(bad, 10)
+
+
+def test_auto_workers_make_the_same_dataset_as_one_worker(tmp_path, monkeypatch):
+    """Three cores: a 10-sample run uses 3 workers, a 2-sample one 2, a 1-sample one this process;
+    every dataset holds the bytes one worker makes."""
+    from pressurepose.data import executors
+
+    monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
+    for count, used in ((10, 3), (2, 2), (1, 1)):
+        c = small_config(count=count, shard_size=4)
+        one = generate(c, tmp_path / f"one{count}", workers=1, progress=False)
+        auto = generate(c, tmp_path / f"auto{count}", workers="auto", progress=False)
+        assert (one.workers, auto.workers) == (1, used)
+        _assert_same(_arrays(tmp_path / f"one{count}"), _arrays(tmp_path / f"auto{count}"))
+        assert one.manifest.to_dict()["shards"] == auto.manifest.to_dict()["shards"]
