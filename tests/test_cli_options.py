@@ -121,7 +121,7 @@ def test_generate_passes_the_sampler_and_running_flags_on(tmp_path, monkeypatch)
 
     config, kw = _generate_calls(tmp_path, monkeypatch)
     assert (config.across_sd_m, config.across_sd_lateral_m, config.poses) == (0.03, 0.08, "")
-    assert (kw["workers"], kw["ray_address"], kw["retries"]) == (1, None, 2)
+    assert (kw["workers"], kw["ray_address"], kw["retries"]) == ("auto", None, 2)
     pose_file(tmp_path / "mine.npz")
     config, kw = _generate_calls(tmp_path, monkeypatch, "--across-sd", "0.05", "--across-sd-lateral", "0.12",
                                  "--poses", str(tmp_path / "mine.npz"), "--pose-frame", "camera",

@@ -162,3 +162,49 @@ def test_info_on_a_recipe_folder_writes_one_picture_per_split_as_its_help_says(t
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     line = next(ln for ln in readme.splitlines() if "$pp info data/paper_small" in ln)
     assert all(name in line for name in written)
+
+
+def test_generate_workers_take_a_number_or_auto_and_the_summary_says_how_many_ran(tmp_path, capsys, monkeypatch):
+    from pressurepose.data import executors
+
+    args = ["generate", "--partition", "general", "--gender", "f", "--count", "3", "--producer", "synthetic",
+            "--no-progress"]
+    for bad in ("0", "-2", "many", "1.5"):
+        with pytest.raises(SystemExit) as exc:
+            main([*args, "--out", str(tmp_path / "bad"), "--workers", bad])
+        assert exc.value.code == 2
+        err = " ".join(capsys.readouterr().err.split())
+        assert f"argument --workers: '{bad}': expected a number of worker processes (1 or more) or 'auto'" in err
+    assert not (tmp_path / "bad").exists()
+    monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
+    assert main([*args, "--out", str(tmp_path / "one"), "--workers", "1"]) == 0
+    assert "(this process)" in capsys.readouterr().out
+    assert main([*args, "--out", str(tmp_path / "auto")]) == 0  # 8 cores, 3 samples: 3 workers
+    out = capsys.readouterr().out
+    assert "3/3 samples, made 1 shard(s)" in out and "(3 worker processes)" in out
+    assert (tmp_path / "one" / "shard-00000.h5").read_bytes() == (tmp_path / "auto" / "shard-00000.h5").read_bytes()
+
+
+def test_a_dataset_of_256_sample_shards_resumes_without_shard_size(tmp_path, capsys):
+    """Shard size is layout, not content: a dataset in --out keeps its own when --shard-size is left
+    out (its config, and so its identity, unchanged); a new one gets 64-sample shards; a different
+    --shard-size on an existing dataset is refused by name before anything is written."""
+    from pressurepose.data.store import Manifest
+
+    out = tmp_path / "d"
+    args = ["generate", "--partition", "general", "--gender", "f", "--count", "300", "--seed", "4",
+            "--producer", "synthetic", "--workers", "1", "--no-progress", "--out", str(out)]
+    assert main([*args, "--shard-size", "256", "--shards", "0"]) == 0
+    identity = Manifest.load(out).config.digest
+    capsys.readouterr()
+    assert main([*args, "--shard-size", "64"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{out} holds a dataset of 256-sample shards; --shard-size 64" in err and "Leave --shard-size out" in err
+    assert sorted(p.name for p in out.glob("shard-*")) == ["shard-00000.h5"]
+    assert main(args) == 0
+    assert "300/300 samples, made 1 shard(s), kept 1" in capsys.readouterr().out
+    m = Manifest.load(out)
+    assert (m.config.shard_size, m.config.digest, m.complete) == (256, identity, True)
+    assert main([*args[:-1], str(tmp_path / "new")]) == 0
+    assert Manifest.load(tmp_path / "new").config.shard_size == 64
+    assert len(list((tmp_path / "new").glob("shard-*.h5"))) == 5
