@@ -5,7 +5,7 @@ Run: ``python -m benchmarks.bench_data`` (a few minutes). Two workers against on
 parallel scaling of ``generate`` a user sees. Prints the figures and replaces
 the ``bench:data`` section of docs/RESULTS.md.
 
-The throughput runs are the CLI with its defaults (physics producer, 256-sample shards, so 64
+The throughput runs are the CLI with its defaults (physics producer), ``--shard-size 256`` (so 64
 samples are ONE shard) and ``--workers 1`` or ``--workers 2``, each a fresh process tree timed by
 wall time and by the CPU time of the whole tree (workers, forkserver and start-up included).
 ``--producer synthetic`` measures the pipeline alone with a fixed CPU cost per attempt instead.
@@ -27,7 +27,8 @@ from benchmarks.results import write_section
 def run_generation(out: Path, workers: int, count: int, cost_ms: float, producer: str, partition: str,
                    gender: str) -> dict:
     args = ["generate", "--partition", partition, "--gender", gender, "--count", str(count), "--seed", "11",
-            "--workers", str(workers), "--producer", producer, "--out", str(out), "--no-progress"]
+            "--workers", str(workers), "--shard-size", "256", "--producer", producer, "--out", str(out),
+            "--no-progress"]
     if producer == "synthetic":
         args += ["--option", f"cost_ms={cost_ms}"]
     run = run_cli(args)
@@ -89,7 +90,7 @@ def main(argv=None) -> int:
         f"`python -m benchmarks.bench_data`; machine: {machine()}, {os.cpu_count()} CPUs (shared: load average {load_before[0]:.1f} "
         f"before, {load_after[0]:.1f} after the throughput runs); {time.strftime('%Y-%m-%d')}.",
         f"Runs: `pressurepose generate --partition {args.partition} --gender {args.gender} --count {args.count} "
-        f"--producer {args.producer} --workers N`, other options at their defaults (256-sample shards: one "
+        f"--producer {args.producer} --workers N --shard-size 256`, other options at their defaults (one "
         f"shard)" + (f", {args.cost_ms:g} ms of CPU per attempt (a stand-in cost; not physics)"
                       if args.producer == "synthetic" else "") + "; CPU is the whole process tree's.",
         "",

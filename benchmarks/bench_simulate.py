@@ -3,7 +3,7 @@
     python -m benchmarks.bench_simulate [--count 16] [--seed 5] [--recipe-scale 0.003] [--no-write]
 
 Throughput is measured on the user's path: the CLI with its defaults (physics producer, default
-bed and mat, one worker), a fresh process per run, timed by the CPU time of its whole process tree
+bed and mat) and ``--workers 1``, a fresh process per run, timed by the CPU time of its whole process tree
 (start-up, imports, set-up, every attempt, shard encoding and writing); the machine is shared, so
 wall time would measure the neighbours. One run per partition of the paper's recipe and gender,
 ``--count`` samples each (partitions the recipe only has with limbs over the bed run with
@@ -57,7 +57,7 @@ GOAL = 3.0
 
 def cli_args(partition: str, gender: str, plo: bool, count: int, seed: int, out: Path) -> list[str]:
     return (["generate", "--partition", partition, "--gender", gender, "--count", str(count), "--seed", str(seed),
-             "--out", str(out), "--no-progress"] + (["--limbs-on-bed"] if plo else []))
+             "--workers", "1", "--out", str(out), "--no-progress"] + (["--limbs-on-bed"] if plo else []))
 
 
 def breakdown(config: GenerationConfig) -> dict:
@@ -138,8 +138,8 @@ def main(argv=None) -> int:
                 print(part, g, f"{counts['samples']} samples, {counts['attempts']} attempts, CPU {run['cpu']:.1f} s: "
                       f"{counts['samples'] / run['cpu']:.2f} per CPU s", flush=True)
         recipe_out = tmp / "recipe"
-        recipe = run_cli(["generate", "--recipe", "paper", "--scale", str(args.recipe_scale), "--out", str(recipe_out),
-                          "--no-progress"])
+        recipe = run_cli(["generate", "--recipe", "paper", "--scale", str(args.recipe_scale), "--workers", "1",
+                          "--out", str(recipe_out), "--no-progress"])
         recipe_counts = dataset_counts(recipe_out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -181,8 +181,8 @@ def main(argv=None) -> int:
         f"CPUs shared with other jobs (load "
         f"average {load_before[0]:.1f} before, {load_after[0]:.1f} after), MuJoCo {mujoco.__version__}, "
         f"OMP_NUM_THREADS=1 (the simulation is CPU-only).", "",
-        f"Each row is one `pressurepose generate --partition P --gender G --count {args.count} --seed {args.seed}` "
-        "with every other option at its default (one worker), in a fresh process; its CPU is that of the whole "
+        f"Each row is one `pressurepose generate --partition P --gender G --count {args.count} --seed {args.seed} "
+        "--workers 1` with every other option at its default, in a fresh process; its CPU is that of the whole "
         "process tree, start-up included. Steps, rejections and the CPU split come from the same attempts "
         "replayed in the benchmark process.", "",
         *lines, "",
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
         "step is most of it: about a third is the 612-cell bed itself, the contacts of the resting body most of "
         "the rest; docs/throughput.md).", "",
         f"**`general`: {general_rate:.2f} accepted samples per CPU-second** (both genders, start-up included). "
-        f"**Paper recipe** (`generate --recipe paper --scale {args.recipe_scale:g}`, all 36 entries in one "
+        f"**Paper recipe** (`generate --recipe paper --scale {args.recipe_scale:g} --workers 1`, all 36 entries in one "
         f"process, {recipe_counts['samples']} samples, {recipe_counts['attempts']} attempts): "
         f"**{recipe_rate:.2f} accepted samples per CPU-second**; the rows above, weighted by the paper's "
         f"full-scale mix of partitions and genders, predict {predicted:.2f} (entries with limbs over the bed "
