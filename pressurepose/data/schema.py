@@ -212,7 +212,8 @@ class GenerationConfig:
     """Everything that decides a dataset's content; saved in its manifest.
 
     partition, gender ('f' | 'm'), limbs_on_bed (the paper's "plo": limbs start over the bed),
-    count (samples), seed; mat (sensor preset name); shard_size (samples per file); producer (name in
+    count (samples), seed; mat (sensor preset name); shard_size (samples per file; ``pressurepose
+    generate`` gives a new dataset 64, a script's config without it has 256); producer (name in
     ``pressurepose.data.producers.PRODUCERS`` or ``"module:function"``); max_attempts (tries per
     sample before the run fails); options (producer-specific settings, str -> str/number/bool).
     shapes, placement, across_sd_m, across_sd_lateral_m, hanging_limbs: the pose sampler's
