@@ -121,8 +121,8 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     r = p.add_argument_group("how to run")
     r.add_argument("--workers", type=_workers, default=AUTO,
                    help="local worker processes: a number (1: this process alone) or 'auto' (default): one per "
-                        "core this process may use. Never more than the samples to make; the dataset is the same "
-                        "for any number")
+                        "core this process may use, one per 8 samples to make at most. Never more than the samples "
+                        "to make; the dataset is the same for any number")
     r.add_argument("--ray", metavar="ADDRESS",
                    help="run the work units on Ray instead: 'local' starts a private local instance, "
                         "'auto' joins this machine's cluster, or ray://host:port (needs the [ray] extra)")

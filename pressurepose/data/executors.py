@@ -53,6 +53,10 @@ def run_units(units: Sequence[WorkUnit], *, workers: int | str = 1, ray_address:
 
 
 AUTO = "auto"  # as many workers as this process may use cores, and no more than there is work for
+# "auto" starts a worker only for this many samples to make: a worker's start-up (interpreter, imports,
+# body model, bed: about 1.5 CPU-seconds) is then under a fifth of its work at about 1 sample per
+# CPU-second, so a small run is not slower on many cores than in this process
+AUTO_SAMPLES_PER_WORKER = 8
 
 
 def _whole(value) -> bool:
@@ -81,12 +85,13 @@ def available_cores() -> int:
 
 def resolve_workers(workers: int | str, samples: int) -> int:
     """Local worker processes to make ``samples`` samples with (1: in this process). ``workers``: a
-    number, or ``"auto"`` for :func:`available_cores`; either is capped at ``samples``, since a sample
-    is the smallest part of a shard a worker is handed (:func:`~pressurepose.data.pipeline.plan_units`),
-    so further workers would have nothing to do."""
+    number, capped at ``samples``, since a sample is the smallest part of a shard a worker is handed
+    (:func:`~pressurepose.data.pipeline.plan_units`), so further workers would have nothing to do; or
+    ``"auto"``: :func:`available_cores`, at most one per :data:`AUTO_SAMPLES_PER_WORKER` samples."""
     check_executor(workers, None, 0)
-    wanted = available_cores() if workers == AUTO else int(workers)
-    return max(1, min(wanted, samples))
+    if workers == AUTO:
+        return max(1, min(available_cores(), -(-samples // AUTO_SAMPLES_PER_WORKER)))
+    return max(1, min(int(workers), samples))
 
 
 class _Retries:

@@ -167,7 +167,7 @@ def test_info_on_a_recipe_folder_writes_one_picture_per_split_as_its_help_says(t
 def test_generate_workers_take_a_number_or_auto_and_the_summary_says_how_many_ran(tmp_path, capsys, monkeypatch):
     from pressurepose.data import executors
 
-    args = ["generate", "--partition", "general", "--gender", "f", "--count", "3", "--producer", "synthetic",
+    args = ["generate", "--partition", "general", "--gender", "f", "--count", "20", "--producer", "synthetic",
             "--no-progress"]
     for bad in ("0", "-2", "many", "1.5"):
         with pytest.raises(SystemExit) as exc:
@@ -179,9 +179,9 @@ def test_generate_workers_take_a_number_or_auto_and_the_summary_says_how_many_ra
     monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
     assert main([*args, "--out", str(tmp_path / "one"), "--workers", "1"]) == 0
     assert "(this process)" in capsys.readouterr().out
-    assert main([*args, "--out", str(tmp_path / "auto")]) == 0  # 8 cores, 3 samples: 3 workers
+    assert main([*args, "--out", str(tmp_path / "auto")]) == 0  # 8 cores, 20 samples: 3 workers
     out = capsys.readouterr().out
-    assert "3/3 samples, made 1 shard(s)" in out and "(3 worker processes)" in out
+    assert "20/20 samples, made 1 shard(s)" in out and "(3 worker processes)" in out
     assert (tmp_path / "one" / "shard-00000.h5").read_bytes() == (tmp_path / "auto" / "shard-00000.h5").read_bytes()
 
 

@@ -212,13 +212,13 @@ def test_generate_refuses_arguments_of_the_wrong_kind_before_writing(tmp_path):
     assert generate(c, tmp_path / "g", only_shards=(np.int64(0),), progress=False).made == 1
 
 
-def test_auto_workers_are_the_cores_this_process_may_use_and_no_more_than_the_samples(monkeypatch):
+def test_auto_workers_are_the_cores_this_process_may_use_and_one_per_eight_samples(monkeypatch):
     from pressurepose.data import executors
     from pressurepose.errors import BadInput
 
     monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
     assert executors.available_cores() == 8
-    assert [executors.resolve_workers("auto", n) for n in (100, 8, 4, 1, 0)] == [8, 8, 4, 1, 1]
+    assert [executors.resolve_workers("auto", n) for n in (100, 64, 63, 9, 8, 4, 1, 0)] == [8, 8, 8, 2, 1, 1, 1, 1]
     assert [executors.resolve_workers(3, n) for n in (100, 2)] == [3, 2]
     monkeypatch.delattr(executors.os, "sched_getaffinity", raising=False)  # macOS, Windows
     monkeypatch.setattr(executors.os, "cpu_count", lambda: 6)
@@ -229,12 +229,12 @@ def test_auto_workers_are_the_cores_this_process_may_use_and_no_more_than_the_sa
 
 
 def test_auto_workers_make_the_same_dataset_as_one_worker(tmp_path, monkeypatch):
-    """Three cores: a 10-sample run uses 3 workers, a 2-sample one 2, a 1-sample one this process;
+    """Three cores: a 30-sample run uses 3 workers, a 10-sample one 2, a 2-sample one this process;
     every dataset holds the bytes one worker makes."""
     from pressurepose.data import executors
 
     monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
-    for count, used in ((10, 3), (2, 2), (1, 1)):
+    for count, used in ((30, 3), (10, 2), (2, 1)):
         c = small_config(count=count, shard_size=4)
         one = generate(c, tmp_path / f"one{count}", workers=1, progress=False)
         auto = generate(c, tmp_path / f"auto{count}", workers="auto", progress=False)
