@@ -82,7 +82,8 @@ class MonitorConfig:
 def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s: float = 60.0) -> np.ndarray:
     """(count,) seconds from the first frame, from a frame rate ``fps`` (Hz) or ``timestamps``
     (count,) seconds (any origin). BadInput without either, with both, for timestamps that are not
-    numbers or do not increase, or for a gap between frames longer than ``max_gap_s``."""
+    a 1-D sequence of ``count`` numbers or do not increase, or for a gap between frames longer than
+    ``max_gap_s``."""
     if (fps is None) == (timestamps is None):
         raise BadInput("a recording needs its timing: a frame rate (fps, frames per second) or a timestamp per "
                        "frame, not both" if fps is not None else
@@ -101,7 +102,8 @@ def frame_times(count: int, fps: float | None = None, timestamps=None, max_gap_s
 
 def check_times(times, count: int, max_gap_s: float, what: str = "times") -> np.ndarray:
     """``times`` as (count,) float64 seconds, as given; BadInput naming ``what`` unless they are one
-    finite number per frame, increasing, with no gap between frames longer than ``max_gap_s``."""
+    finite number per frame in a 1-D sequence, increasing, with no gap between frames longer than
+    ``max_gap_s``."""
     if times is None or isinstance(times, (str, bytes, dict)):
         raise BadInput(f"{what} are {times!r:.80}; expected a number of seconds per frame")
     try:
@@ -111,8 +113,11 @@ def check_times(times, count: int, max_gap_s: float, what: str = "times") -> np.
     if raw.dtype.kind in "mM":  # their unit is not seconds
         raise BadInput(f"{what} hold {raw.dtype} values; expected a number of seconds per frame (not dates or "
                        f"durations)")
+    if raw.ndim != 1:  # a (T, 1) column or a (2, T/2) table read flat would pass as T times
+        raise BadInput(f"{what} have shape {raw.shape}; expected a 1-D sequence of {count} (one number of seconds "
+                       f"per frame)")
     try:
-        t = raw.astype(np.float64).ravel()
+        t = raw.astype(np.float64)
     except (TypeError, ValueError):
         raise BadInput(f"{what} hold {raw.dtype} values that are not numbers; expected a number of seconds per "
                        f"frame") from None

@@ -469,3 +469,18 @@ def test_monitor_verb_refuses_an_empty_or_many_column_timestamps_file(tmp_path, 
     np.savetxt(tmp_path / "column.txt", np.arange(4.0)[:, None])  # one number a line, as before
     assert main(["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg",
                  "--gender", "f", "--timestamps", str(tmp_path / "column.txt"), "--out", str(tmp_path / "out")]) == 0
+
+
+def test_frame_times_refuse_timestamps_that_are_not_a_1d_sequence():
+    """A (T, 1) column, a (2, T/2) table or a single number were read flat as T times; each is
+    refused with its shape, for frame_times' timestamps and monitor's times alike."""
+    from pressurepose.eval.monitor import check_times
+
+    for stamps in (np.arange(4.0).reshape(4, 1), np.arange(4.0).reshape(2, 2), [[0.0, 1.0], [2.0, 3.0]]):
+        with pytest.raises(BadInput, match=r"timestamps have shape \((4, 1|2, 2)\); expected a 1-D sequence of 4"):
+            frame_times(4, timestamps=stamps)
+    with pytest.raises(BadInput, match=r"timestamps have shape \(\); expected a 1-D sequence of 1"):
+        frame_times(1, timestamps=5.0)
+    with pytest.raises(BadInput, match=r"times have shape \(4, 1\)"):
+        check_times(np.arange(4.0)[:, None], 4, 60.0)
+    np.testing.assert_allclose(frame_times(4, timestamps=np.arange(4.0) + 7), [0, 1, 2, 3])
