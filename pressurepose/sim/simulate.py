@@ -20,6 +20,7 @@ from pressurepose.body.lbs_numpy import (
     rotation_to_axis_angle,
     shaped_rest,
 )
+from pressurepose.errors import BadInput
 from pressurepose.sim.settle_config import HANG_DEPTH_M, LIMB_JOINTS, hanging
 
 if TYPE_CHECKING:
@@ -115,6 +116,22 @@ def limb_off_bed(joints: np.ndarray, bed) -> bool:
     return hanging(np.asarray(joints)[list(LIMB_JOINTS)], bed.mattress_bounds, HANG_DEPTH_M)
 
 
+def check_body_gender(body, gender) -> str:
+    """``gender`` as 'f' or 'm'; BadInput unless it is f or m (female, male) and, for a body that
+    records a gender (``body.gender`` 'female' or 'male'), that one: the body's shape space and the
+    mass table would otherwise belong to different people. A neutral body takes either (the gender
+    then picks the mass table, as :func:`pressurepose.sim.settle.settle`'s does)."""
+    from pressurepose.pose.sampler import check_gender
+
+    g = check_gender(gender)
+    own = getattr(body, "gender", "neutral")
+    if own in ("female", "male") and own[0] != g:
+        raise BadInput(f"gender is {gender!r} but the body is the {own} model ({body!r}); expected {own[0]!r}, or "
+                       f"a neutral body (BodyModel('n')) to settle with the {'female' if g == 'f' else 'male'} "
+                       f"mass table")
+    return g
+
+
 def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generator,
                  limbs_on_bed: bool = False, sampler=None, conditions=None, timings: dict | None = None,
                  settle_config=None) -> Simulated | Rejected:
@@ -135,11 +152,13 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
     :func:`pressurepose.pose.sampler.whole_pose`) holds that pose: its joint springs rest at the
     drawn pose, not the paper's home pose (docs/physics.md, "Springs of real poses").
 
+    ``gender`` ('f' or 'm') labels the body and picks its mass table; a female or male ``body`` must
+    be of that gender (:func:`check_body_gender`), a neutral one may take either.
+
     ``timings``: a dict to fill with the CPU seconds of the attempt's phases (``sample``, ``settle``,
     ``press``: what ran) and the settle's ``steps`` (for benchmarks). ``settle_config``: a
     :class:`~pressurepose.sim.settle_config.SettleConfig` (default: its defaults, the "relaxed" settle)."""
     from pressurepose.body.model import BodyModel
-    from pressurepose.errors import BadInput
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
     from pressurepose.pose.sampler import sample_one, whole_pose
@@ -157,6 +176,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
                                               ("settle_config", settle_config, SettleConfig, "a SettleConfig", True)):
         if not isinstance(value, kind) and not (optional and value is None):
             raise BadInput(f"{name} is {type(value).__name__}; expected {what}" + (" or None" if optional else ""))
+    check_body_gender(body, gender)
     clock = {} if timings is None else timings
     sampler = SamplerConfig() if sampler is None else sampler
     t0 = time.process_time()

@@ -180,3 +180,24 @@ def test_simulate_one_refuses_arguments_of_the_wrong_kind_before_any_work():
                                   ((body, bed), {"limbs_on_bed": "no"}, "limbs_on_bed is 'no'; expected True or False")):
         with pytest.raises(BadInput, match=message):
             simulate_one(*args, "general", "f", rng, **kwargs)
+
+
+def test_simulate_one_refuses_a_gender_that_is_not_the_bodys():
+    """A female body settled as 'm' (or a male one as 'f') was simulated with the other gender's
+    mass table and label; it is refused naming both. A neutral body takes either gender."""
+    import pytest
+
+    from pressurepose.body.toy import toy_body_arrays
+    from pressurepose.errors import BadInput
+    from pressurepose.sim.bed import get_bed
+    from pressurepose.sim.simulate import check_body_gender, simulate_one
+
+    bed, rng = get_bed(), np.random.default_rng(0)
+    for spec, gender, own in (("f", "m", "female"), ("m", "female", "male")):
+        with pytest.raises(BadInput, match=f"gender is '{gender}' but the body is the {own} model.*'{own[0]}'"):
+            simulate_one(BodyModel(spec), bed, "general", gender, rng)
+    with pytest.raises(BadInput, match="gender 'x' is not known"):
+        simulate_one(BodyModel("f"), bed, "general", "x", rng)
+    neutral = BodyModel(toy_body_arrays())
+    assert [check_body_gender(neutral, g) for g in ("f", "m", "male")] == ["f", "m", "m"]
+    assert check_body_gender(BodyModel("f"), "female") == "f"
