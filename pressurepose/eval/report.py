@@ -15,7 +15,7 @@ import torch
 from pressurepose.errors import BadInput, require_bool, require_whole
 from pressurepose.eval.metrics import baseline_body, mpjpe, v2v
 from pressurepose.eval.posture import body_stature_mass, posture_of
-from pressurepose.net.data import LoadedData, load_dataset
+from pressurepose.net.data import LoadedData, check_loaded, load_dataset
 from pressurepose.net.fit import FitConfig, fit_config
 from pressurepose.net.model import PressureNet
 from pressurepose.net.outputs import BodyParams
@@ -50,7 +50,9 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
 
     data: a :class:`pressurepose.net.data.LoadedData` or what
     :func:`~pressurepose.net.data.load_dataset` reads (a dataset, a folder of datasets of one split,
-    a training pack), on the model's mat. model: a PressureNet, a model path or None (the shipped
+    a training pack), on the model's mat; a LoadedData built by hand is checked as a training pack
+    is (:func:`~pressurepose.net.data.check_loaded`: BadInput naming a missing, misshapen, non-finite
+    or out-of-range field). model: a PressureNet, a model path or None (the shipped
     model), as :func:`pressurepose.net.infer.estimate`'s.
     Vertex errors compare with the true bodies posed by the network's own body layer (same
     topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
@@ -66,7 +68,7 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
     if isinstance(data, PressureNet):
         raise BadInput("evaluate(data, model): the data come first, then the model")
     net = resolve_model(model)
-    data = data if isinstance(data, LoadedData) else load_dataset(data)
+    data = check_loaded(data) if isinstance(data, LoadedData) else load_dataset(data)
     if len(data) == 0:
         raise BadInput("no samples to evaluate")
     if data.grid.shape != net.config.grid.shape:

@@ -76,6 +76,70 @@ def save_pack(data: LoadedData, path: str | Path) -> None:
                     partition_names=np.array(data.partition_names), **arrays)
 
 
+def check_arrays(arrays, image_shape: tuple[int, int], partitions: int, what: str) -> None:
+    """BadInput naming ``what`` and the field unless ``arrays`` ({field: numpy array}) hold N samples
+    of pressure (N, rows, cols) mmHg >= 0 for ``image_shape`` (rows, cols) and the labels of
+    :data:`_LABEL_SHAPES` (betas (N, 10), pose (N, 72) rad, transl (N, 3) m, joints (N, 24, 3) m,
+    gender (N,) 0 'f' / 1 'm', partition (N,) an index below ``partitions``), all numbers, all finite."""
+    n = len(arrays["pressure"]) if np.ndim(arrays["pressure"]) else 0
+    for k, shape in {"pressure": tuple(image_shape), **_LABEL_SHAPES}.items():
+        a = arrays[k]
+        if a.shape != (n, *shape):
+            raise BadInput(f"{what}: {k} has shape {a.shape}; expected {(n, *shape)}")
+        if a.dtype.kind not in "fiub":
+            raise BadInput(f"{what}: {k} holds {a.dtype} values; expected numbers")
+        if a.dtype.kind == "f" and not np.isfinite(a).all():
+            raise BadInput(f"{what}: {k} holds NaN or infinite values")
+    if (arrays["pressure"] < 0).any():
+        raise BadInput(f"{what}: pressure holds negative values; expected mmHg >= 0")
+    if not np.isin(arrays["gender"], (0, 1)).all():
+        raise BadInput(f"{what}: gender must be 0 or 1 (female, male); it holds "
+                       f"{sorted(set(np.unique(arrays['gender']).tolist()) - {0, 1})[:3]}")
+    part = arrays["partition"].astype(np.float64)
+    if not (np.all(part == np.floor(part)) and ((part >= 0) & (part < partitions)).all()):
+        raise BadInput(f"{what}: partition must be an index of its {partitions} partition_names (0 to "
+                       f"{partitions - 1})")
+
+
+def check_loaded(data) -> LoadedData:
+    """``data`` (a LoadedData, perhaps built by hand) with its tensors as :func:`load_dataset` gives
+    them (float32 images and labels, int64 gender and partition), checked as a training pack is
+    (:func:`check_arrays`); BadInput naming the field that is missing, of another type or shape,
+    not finite, negative (pressure) or out of range (gender, partition)."""
+    what = "LoadedData"
+    if not isinstance(data, LoadedData):
+        raise BadInput(f"data is {type(data).__name__}; expected a LoadedData (load_dataset(path))")
+    if not isinstance(data.grid, MatSpec):
+        raise BadInput(f"{what}: grid is {type(data.grid).__name__}; expected a MatSpec (get_mat(name))")
+    names = data.partition_names
+    if isinstance(names, (str, bytes)) or not isinstance(names, (tuple, list)) or not all(
+            isinstance(x, str) for x in names):
+        raise BadInput(f"{what}: partition_names is {names!r:.80}; expected a tuple of partition names")
+    tensors = data.tensors
+    if not isinstance(tensors, dict):
+        raise BadInput(f"{what}: tensors is {type(tensors).__name__}; expected a dict of torch tensors")
+    need = (*FIELDS, "gender", "partition")
+    missing = [k for k in need if k not in tensors]
+    if missing:
+        raise BadInput(f"{what}: tensors lack {', '.join(missing)}; expected {', '.join(need)}")
+    bad = [k for k in need if not isinstance(tensors[k], (torch.Tensor, np.ndarray))]
+    if bad:
+        raise BadInput(f"{what}: tensors[{bad[0]!r}] is {type(tensors[bad[0]]).__name__}; expected a torch tensor")
+    arrays = {k: _numpy(tensors[k]) for k in need}
+    check_arrays(arrays, data.grid.shape, len(names), what)
+    out = {k: torch.as_tensor(np.ascontiguousarray(arrays[k]), dtype=torch.float32) for k in FIELDS}
+    out.update({k: torch.as_tensor(arrays[k]).long() for k in ("gender", "partition")})
+    return LoadedData({**tensors, **out}, data.grid, str(data.mat), tuple(names))
+
+
+def _numpy(t) -> np.ndarray:
+    """A tensor's values as a numpy array (its memory where it can; bfloat16 as float32)."""
+    if not isinstance(t, torch.Tensor):
+        return np.asarray(t)
+    t = t.detach().cpu()
+    return (t.float() if t.dtype == torch.bfloat16 else t).numpy()
+
+
 def _load_pack(path: Path, limit: int | None) -> LoadedData:
     """A training pack written by :func:`save_pack`; BadInput naming the file for anything else."""
     from pressurepose.files import load_npz
@@ -86,23 +150,12 @@ def _load_pack(path: Path, limit: int | None) -> LoadedData:
     if missing or str(arrays.get("format")) != PACK_FORMAT:
         raise BadInput(f"training pack {path}: expected a file written by `pressurepose pack` ({PACK_FORMAT}); "
                        + (f"it lacks {', '.join(missing)}" if missing else f"its format is {arrays['format']}"))
-    n = len(arrays["pressure"])
     grid = arrays["grid"]
     if grid.shape != (4,) or not np.isfinite(grid).all():
         raise BadInput(f"training pack {path}: grid {grid.tolist()} is not (rows, cols, pitch_row, pitch_col)")
     rows, cols = int(grid[0]), int(grid[1])
-    for k, shape in {"pressure": (rows, cols), **_LABEL_SHAPES}.items():
-        a = arrays[k]
-        if a.shape != (n, *shape):
-            raise BadInput(f"training pack {path}: {k} has shape {a.shape}; expected {(n, *shape)}")
-        if a.dtype.kind == "f" and not np.isfinite(a).all():
-            raise BadInput(f"training pack {path}: {k} holds NaN or infinite values")
     names = tuple(str(s) for s in arrays["partition_names"])
-    if (arrays["pressure"] < 0).any():
-        raise BadInput(f"training pack {path}: pressure holds negative values; expected mmHg >= 0")
-    if not np.isin(arrays["gender"], (0, 1)).all() or not ((arrays["partition"] >= 0)
-                                                           & (arrays["partition"] < len(names))).all():
-        raise BadInput(f"training pack {path}: gender must be 0 or 1 and partition an index of its partition_names")
+    check_arrays(arrays, (rows, cols), len(names), f"training pack {path}")
     sl = slice(None) if limit is None else slice(0, int(limit))
     tensors = {k: torch.from_numpy(np.ascontiguousarray(arrays[k][sl], dtype=np.float32)) for k in FIELDS}
     for k in ("gender", "partition"):

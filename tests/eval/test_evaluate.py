@@ -153,3 +153,41 @@ def test_evaluate_refuses_a_mirror_flag_that_is_not_true_or_false(tmp_path):
     data = load_dataset(tmp_path / "data")
     with pytest.raises(BadInput, match="mirror is 'no'; expected True or False"):
         evaluate(data, mirror="no")
+
+
+def test_evaluate_checks_a_loaded_data_built_by_hand(setup):
+    """A hand-built LoadedData was trusted: NaN labels or negative pressure gave NaN or wrong errors,
+    a gender of 2 or a partition past its names an IndexError, a missing field a KeyError, images of
+    the wrong size a RuntimeError. Each is refused naming the field, as a training pack is; float64
+    and int32 tensors are read as load_dataset's float32 and int64."""
+    from pressurepose.net.data import LoadedData, check_loaded
+
+    root, _, path = setup
+    good = load_dataset(root / "data")
+    t, names = good.tensors, good.partition_names
+
+    def changed(**fields):
+        return LoadedData({k: v for k, v in {**t, **fields}.items() if v is not None}, good.grid, good.mat, names)
+
+    nan_pose = t["pose"].clone()
+    nan_pose[1, 5] = float("nan")
+    negative = t["pressure"].clone()
+    negative[0, 3, 4] = -1.0
+    for data, message in ((changed(pose=nan_pose), "LoadedData: pose holds NaN or infinite values"),
+                          (changed(pressure=negative), "LoadedData: pressure holds negative values"),
+                          (changed(gender=torch.tensor([0, 1, 2, 0])),
+                           r"gender must be 0 or 1 \(female, male\); it holds \[2\]"),
+                          (changed(partition=torch.tensor([0, 1, 999, 0])), "partition must be an index of its"),
+                          (changed(joints=None), "LoadedData: tensors lack joints"),
+                          (changed(betas=t["betas"][:3]), r"betas has shape \(3, 10\); expected \(4, 10\)"),
+                          (changed(pressure=t["pressure"][:, :60]), r"pressure has shape \(4, 60, 27\); expected "
+                                                                    r"\(4, 64, 27\)"),
+                          (changed(transl=[[0.0] * 3] * 4), r"tensors\['transl'\] is list; expected a torch tensor")):
+        with pytest.raises(BadInput, match=message):
+            evaluate(data, path)
+    with pytest.raises(BadInput, match="partition_names is 'general'"):
+        evaluate(LoadedData(t, good.grid, good.mat, "general"), path)
+    cast = check_loaded(changed(pressure=t["pressure"].double(), gender=t["gender"].int()))
+    assert cast.tensors["pressure"].dtype == torch.float32 and cast.tensors["gender"].dtype == torch.int64
+    np.testing.assert_array_equal(evaluate(cast, path)["errors"]["mod2_mpjpe"],
+                                  evaluate(good, path)["errors"]["mod2_mpjpe"])
