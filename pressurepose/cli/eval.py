@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+GALLERY_COUNT = 3  # gallery.png of evaluate-real: this many best and as many worst estimates
+
 
 def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Evaluate a trained PressureNet on a generated dataset: MPJPE (24 joints) and "
@@ -131,13 +133,11 @@ def run_evaluate_real(args) -> int:
     )
     from pressurepose.files import (
         check_output_path,
-        save_figure_atomic,
         write_json_atomic,
         write_text_atomic,
     )
     from pressurepose.net.infer import resolve_model
     from pressurepose.net.device import resolve_device
-    from pressurepose.viz.gallery import gallery_figure
 
     out = check_output_path(args.out, "--out", directory=True)
     device = resolve_device(args.device)
@@ -192,13 +192,28 @@ def run_evaluate_real(args) -> int:
               f"\n\n## By subject\n\n{format_subject_table(s)}"
               f"\n\n## Posture confusion\n\n{format_confusion(s['confusion'])}\n")
     write_text_atomic(out / "report.md", report)
-    import matplotlib.pyplot as plt
-
-    fig = gallery_figure(result)
-    save_figure_atomic(fig, out / "gallery.png", dpi=100)
-    plt.close(fig)
+    write_gallery(result, out / "gallery.png")
     print(f"{headline}\n\n{format_real_table(s)}\n\n{format_confusion(s['confusion'])}\n\nwritten to {out}")
     return 0
+
+
+def write_gallery(result, path) -> None:
+    """Draw the gallery of a real-image evaluation (:func:`pressurepose.viz.gallery.gallery_figure`)
+    and save it at ``path``, saying so on stderr first: drawing its rows takes seconds (most of them
+    in matplotlib's layout and rendering, when the figure is saved)."""
+    import sys
+
+    import matplotlib.pyplot as plt
+
+    from pressurepose.files import save_figure_atomic
+    from pressurepose.viz.gallery import gallery_figure, gallery_picks
+
+    kinds = [kind for kind, _ in gallery_picks(result.rows, GALLERY_COUNT)]
+    print(f"drawing {path} ({kinds.count('best')} best and {kinds.count('worst')} worst estimates) ...",
+          file=sys.stderr, flush=True)
+    fig = gallery_figure(result, GALLERY_COUNT)
+    save_figure_atomic(fig, path, dpi=100)
+    plt.close(fig)
 
 
 def add_realism_arguments(p: argparse.ArgumentParser) -> None:

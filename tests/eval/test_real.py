@@ -71,7 +71,9 @@ def test_evaluate_real_verb_on_a_labelled_folder(tmp_path, capsys):
                             weights=[60, 70, 80, 90], genders=["f", "m", "f", "m"])
     out = tmp_path / "out"
     assert main(["evaluate-real", str(folder), "--out", str(out)]) == 0
-    assert "batch" in capsys.readouterr().err  # a progress bar while the network reads the images
+    err = capsys.readouterr().err
+    assert "batch" in err  # a progress bar while the network reads the images, then a line while the gallery is drawn
+    assert f"drawing {out / 'gallery.png'} (2 best and 2 worst estimates) ..." in err.splitlines()
     m = json.loads((out / "metrics.json").read_text())
     assert m["n_images"] == 4 and m["n_estimates"] == 4 and m["layout"] == "labelled"
     rows = json.loads((out / "estimates.json").read_text())["rows"]
