@@ -171,6 +171,7 @@ def simulate_one(body, bed, partition: str, gender: str, rng: np.random.Generato
 
     for name, value, kind, what, optional in (("body", body, BodyModel, "a BodyModel (BodyModel('female'), ...)", False),
                                               ("bed", bed, BedSpec, "a BedSpec (see get_bed)", False),
+                                              ("sampler", sampler, SamplerConfig, "a SamplerConfig", True),
                                               ("conditions", conditions, Conditions, "a Conditions", True),
                                               ("timings", timings, dict, "a dict to fill", True),
                                               ("settle_config", settle_config, SettleConfig, "a SettleConfig", True)):

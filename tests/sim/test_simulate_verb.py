@@ -162,7 +162,8 @@ def test_bodies_posed_from_real_poses_hold_them_and_the_manifest_says_so(monkeyp
 def test_simulate_one_refuses_arguments_of_the_wrong_kind_before_any_work():
     """A body given by name or None, no bed, a dict as the conditions, a list for the timings and a
     preset name as the settle config were AttributeErrors in the sampler or the settle (or a
-    rejected body, for the conditions); limbs_on_bed='no' was true."""
+    rejected body, for the conditions); limbs_on_bed='no' was true; a dict as the sampler was
+    refused as the sampler's own "config"."""
     import pytest
 
     from pressurepose.body.toy import toy_body_arrays
@@ -177,7 +178,9 @@ def test_simulate_one_refuses_arguments_of_the_wrong_kind_before_any_work():
                                   ((body, bed), {"conditions": {}}, "conditions is dict; expected a Conditions or None"),
                                   ((body, bed), {"timings": []}, "timings is list; expected a dict to fill or None"),
                                   ((body, bed), {"settle_config": "paper"}, "settle_config is str; expected a SettleConfig"),
-                                  ((body, bed), {"limbs_on_bed": "no"}, "limbs_on_bed is 'no'; expected True or False")):
+                                  ((body, bed), {"limbs_on_bed": "no"}, "limbs_on_bed is 'no'; expected True or False"),
+                                  ((body, bed), {"sampler": {"hanging_limbs": True}},
+                                   "sampler is dict; expected a SamplerConfig or None")):
         with pytest.raises(BadInput, match=message):
             simulate_one(*args, "general", "f", rng, **kwargs)
 
