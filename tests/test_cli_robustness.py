@@ -193,6 +193,8 @@ REFUSED = [
                                            "--out", w.root / "er"], "the gain 1e-300 mmHg per raw unit (--gain"),
     ("evaluate-real-contact-negative", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
                                                   "--contact-mmhg", -1], "--contact-mmhg"),
+    ("evaluate-real-batch-size-zero", lambda w: ["evaluate-real", w.root / "no_real", "--out", w.root / "er",
+                                                 "--batch-size", 0], "--batch-size"),
     ("realism-examples-negative", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,
                                              "--out", w.root / "rr", "--examples", -1], "--examples"),
     ("realism-examples-absurd", lambda w: ["realism", "--real", w.root / "no_real", "--synthetic", w.data,

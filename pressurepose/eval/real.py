@@ -72,7 +72,7 @@ class RealEvalConfig:
             raise BadInput(f"contact_mmhg (--contact-mmhg) is {self.contact_mmhg!r}; expected a pressure >= 0 (mmHg)")
         if not (number(self.weak_fraction) and 0 <= self.weak_fraction < 1):
             raise BadInput(f"weak_fraction is {self.weak_fraction!r}; expected a share in [0, 1)")
-        require_whole("batch_size", self.batch_size, 1)
+        require_whole("batch_size (--batch-size)", self.batch_size, 1)
         for name in ("force_gender", "mirror"):
             require_bool(name, getattr(self, name))
 

@@ -298,7 +298,7 @@ def test_evaluate_real_refuses_what_is_not_real_images_or_its_config(tmp_path):
     for field, value, message in (("contact_mmhg", "1", r"contact_mmhg \(--contact-mmhg\) is '1'"),
                                   ("weak_fraction", "0.1", "weak_fraction is '0.1'; expected a share"),
                                   ("weak_fraction", None, "weak_fraction is None"),
-                                  ("batch_size", 0, "batch_size is 0"),
+                                  ("batch_size", 0, r"batch_size \(--batch-size\) is 0"),
                                   ("mirror", "no", "mirror is 'no'; expected True or False"),
                                   ("force_gender", 1, "force_gender is 1")):
         with pytest.raises(BadInput, match=message):
