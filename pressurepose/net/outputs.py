@@ -161,18 +161,18 @@ class OutputLayer(nn.Module):
     def __init__(self, config: OutputConfig):
         super().__init__()
         self.config = config
-        lo = torch.tensor(config.angle_lower, dtype=torch.float32)
-        hi = torch.tensor(config.angle_upper, dtype=torch.float32)
-        offset = torch.cat([torch.zeros(10), torch.tensor(config.transl_offset, dtype=torch.float32),
-                            torch.tensor([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), (lo + hi) / 2])
-        scale = torch.cat([torch.full((10,), 2 * BETA_LIMIT), torch.tensor(config.transl_scale, dtype=torch.float32),
-                           torch.ones(6), hi - lo])
-        self.register_buffer("offset", offset, persistent=False)
-        self.register_buffer("scale", config.gain * scale, persistent=False)
-        self.register_buffer("angle_mid", (lo + hi) / 2, persistent=False)
-        self.register_buffer("angle_range", hi - lo, persistent=False)
-        self.register_buffer("angle_lower", lo, persistent=False)
-        self.register_buffer("angle_upper", hi, persistent=False)
+        # made in numpy and turned into tensors one by one: built on the meta device (the checkpoint's
+        # shape check), torch.cat would import PyTorch's compiler, more than a second of start-up
+        lo = np.asarray(config.angle_lower, np.float32)
+        hi = np.asarray(config.angle_upper, np.float32)
+        mid, width = (lo + hi) / np.float32(2), hi - lo
+        offset = np.concatenate([np.zeros(10, np.float32), np.asarray(config.transl_offset, np.float32),
+                                 np.array([1, 1, 1, 0, 0, 0], np.float32), mid])
+        scale = np.concatenate([np.full(10, 2 * BETA_LIMIT, np.float32), np.asarray(config.transl_scale, np.float32),
+                                np.ones(6, np.float32), width])
+        for name, value in (("offset", offset), ("scale", np.float32(config.gain) * scale), ("angle_mid", mid),
+                            ("angle_range", width), ("angle_lower", lo), ("angle_upper", hi)):
+            self.register_buffer(name, torch.tensor(value), persistent=False)
 
     def forward(self, raw: torch.Tensor, base: BodyParams | None = None) -> BodyParams:
         raw = raw.float()

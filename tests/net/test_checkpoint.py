@@ -221,3 +221,17 @@ def test_a_model_path_bodies_or_device_of_the_wrong_kind_is_refused_by_name(tmp_
         with pytest.raises(BadInput, match="CUDA is not available"):
             load_model(path, device="cuda")
     assert next(load_model(path, device="cpu")[0].parameters()).device.type == "cpu"
+
+
+def test_loading_the_shipped_model_leaves_pytorchs_compiler_unimported():
+    """Loading checks the stored shapes on the meta device; no step of it (nor one estimate) may pull
+    in torch._dynamo, over a second of every command's start-up."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np\n"
+            "from pressurepose.net.infer import estimate, resolve_model\n"
+            "estimate(np.full((1, 64, 27), 10, np.float32), 'f', model=resolve_model(None))\n"
+            "print('torch._dynamo' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
