@@ -35,7 +35,10 @@ def _train_config(tmp_path, monkeypatch, *extra):
 
 
 def test_every_train_flag_reaches_the_training_config(tmp_path, monkeypatch):
+    from pressurepose.net.train_config import TrainConfig
+
     d = _train_config(tmp_path, monkeypatch)
+    assert d == TrainConfig()  # no options: the Python API's defaults, every field
     assert (d.lr_mod2, d.lr_schedule, d.gender_input, d.loss_sigmas, d.amp, d.save_every, d.cnn, d.cpu_amp,
             d.turn_loss, d.contact_floor_mmhg, d.val_fraction) == (None, "constant", False, "paper", True, 1,
                                                                   "paper", False, 0.0, 5.0, 0.05)

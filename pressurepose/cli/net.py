@@ -13,7 +13,8 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
 
     d = TrainConfig()
     p.description = ("Train PressureNet (Mod1 with loss L1, then Mod2 with L2) on a generated dataset. "
-                     "Defaults are the paper's but for the contact floor (5 mmHg) and a 5 % validation share. Uses a CUDA GPU with mixed precision when there is one. "
+                     f"Defaults are the paper's but for the contact floor ({d.contact_floor_mmhg:g} mmHg) and a "
+                     f"{100 * d.val_fraction:g} % validation share. Uses a CUDA GPU with mixed precision when there is one. "
                      "Rerunning the same command resumes from the last saved epoch.")
     p.add_argument("--data", required=True,
                    help="dataset directory (or a folder of datasets) from `generate`, or a training pack (.npz) from `pack`")
@@ -37,8 +38,9 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
                    help="the loss's normalising constants for joints and shape (sigma_s, sigma_beta): the paper's "
                         "values (paper, default) or the training set's spread (data: for training data whose "
                         "bodies vary unlike the paper's)")
-    p.add_argument("--val-fraction", type=float, default=0.05, help="held-out share for per-epoch validation (default 0.05; 0 trains on every sample and validates "
-                        "on none)")
+    p.add_argument("--val-fraction", type=float, default=d.val_fraction,
+                   help=f"held-out share for per-epoch validation (default {d.val_fraction:g}; 0, the paper's, trains "
+                        f"on every sample and validates on none)")
     p.add_argument("--seed", type=seed_arg, default=d.seed, help=f"seed of the split, shuffling, noise, dropout and init (default {d.seed})")
     p.add_argument("--device", default=d.device, help="auto (CUDA if available, default), cpu, cuda, cuda:1 ...")
     p.add_argument("--no-amp", action="store_true", help="float32 throughout on CUDA (default: the CNNs in mixed precision, faster); to rule half "
@@ -50,11 +52,11 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cnn", choices=tuple(CNN_VARIANTS), default=d.cnn,
                    help="CNN widths: paper (default) or half (half as wide, about 3.5x faster to train on a CPU; the "
                         "shipped model's)")
-    p.add_argument("--contact-floor", type=float, default=5.0, metavar="MMHG",
+    p.add_argument("--contact-floor", type=float, default=d.contact_floor_mmhg, metavar="MMHG",
                    help="sensor floor: readings at or below it are dropped from the input and the contact channel, "
-                        "in training and in every later use of the model [5: above 99 %% of the faint readings a "
-                        "real mat shows away from the body; 0 is the paper's p > 0, which reads a real mat's "
-                        "background as body (docs/sim_to_real.md)]")
+                        f"in training and in every later use of the model [{d.contact_floor_mmhg:g}: above 99 %% of "
+                        "the faint readings a real mat shows away from the body; 0 is the paper's p > 0, which reads "
+                        "a real mat's background as body (docs/sim_to_real.md)]")
     p.add_argument("--turn-loss", type=float, default=d.turn_loss, metavar="W",
                    help="weight of a loss on the body's turn about its long axis (the hips' and shoulders' "
                         "left-right axes, apart from the joint distances; not in the paper) [0]")

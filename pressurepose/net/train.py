@@ -53,7 +53,7 @@ from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
 from pressurepose.net.noise import add_noise
 from pressurepose.net.outputs import BodyParams, OutputConfig
 from pressurepose.net.pmr import PMRConfig, pmr
-from pressurepose.net.train_config import CNN_VARIANTS, TrainConfig
+from pressurepose.net.train_config import CNN_VARIANTS, PAPER_TRAINING, TrainConfig
 from pressurepose.net.transforms import InputConfig, apply_floor
 
 DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
@@ -267,6 +267,28 @@ def _forward(net: PressureNet, stage: int, pressure, gender, noise_gen, config: 
     return net.run_mod2(x1, gender, out1, maps=maps, vertices=False)
 
 
+def resumable_options(config: TrainConfig) -> dict:
+    """The options a run resumes only with (a JSON-ready dict): all but the epoch counts, the
+    device and ``cpu_amp``."""
+    return json.loads(json.dumps({k: v for k, v in config.to_dict().items()
+                                  if k not in ("epochs_mod1", "epochs_mod2", "device", "cpu_amp")}))
+
+
+def as_trained(stored):
+    """A stored run's identity (``state.json``'s ``identity``) as the run was trained: an option its
+    ``train`` record does not name at the paper's value (:data:`PAPER_TRAINING`, else TrainConfig's
+    default), its ``net`` record as :meth:`NetConfig.from_dict` reads it (a missing input setting at
+    its default: ``inputs.contact_floor_mmhg`` 0). Anything else is returned as given."""
+    if not isinstance(stored, dict) or not isinstance(stored.get("train"), dict):
+        return stored
+    out = {**stored, "train": {**resumable_options(TrainConfig(**PAPER_TRAINING)), **stored["train"]}}
+    try:
+        out["net"] = json.loads(json.dumps(NetConfig.from_dict(stored["net"]).to_dict()))
+    except (BadInput, KeyError, TypeError, ValueError):
+        pass  # compared as stored: the refusal names the difference
+    return out
+
+
 def validation_count(n: int, val_fraction: float) -> int:
     """How many of ``n`` samples a run holds out for validation (the rest train)."""
     return int(round(val_fraction * n))
@@ -335,9 +357,7 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
     net_config = net_config_for(config, grid, data["transl"][train_idx])
     torch.manual_seed(config.seed)  # the initial weights
     net = PressureNet(net_config, gendered_body(*bodies)).to(device)
-    resumable = {k: v for k, v in config.to_dict().items()
-                 if k not in ("epochs_mod1", "epochs_mod2", "device", "cpu_amp")}
-    identity = {"train": resumable, "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
+    identity = {"train": resumable_options(config), "net": net_config.to_dict(), "bodies": bodies_meta(*bodies),
                 "data": _fingerprint(data)}
     identity = json.loads(json.dumps(identity))  # tuples -> lists, as stored
 
@@ -349,9 +369,9 @@ def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig =
                        f"state.json and state.safetensors to start the run afresh, or use another --out") from None
     if record is not None and not isinstance(record, dict):
         raise BadInput(f"{state_path} is not a training state; use another --out")
-    if record is not None and record.get("identity") != identity:
+    if record is not None and as_trained(record.get("identity")) != identity:
         old = record.get("identity")
-        what = record_difference(old, identity) if isinstance(old, dict) else "an unreadable record"
+        what = record_difference(as_trained(old), identity) if isinstance(old, dict) else "an unreadable record"
         raise BadInput(f"{out_dir} holds a training run with a different config, body model or data ({what}); "
                        f"use another output folder (nothing was overwritten)")
     if record is not None and record.get("stage") == 2:

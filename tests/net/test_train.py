@@ -231,3 +231,51 @@ def test_the_train_verb_says_what_it_trains_on_and_how_far_a_resumed_run_had_gon
     everything = [a if a != "0.25" else "0" for a in args] + ["--out", str(tmp_path / "all")]  # no validation
     assert main(everything) == 0
     assert "training on 4 samples (" in capsys.readouterr().out
+
+
+def _cut_after_first_epoch(monkeypatch, data, out, cfg, body):
+    """Train ``cfg`` into ``out`` until its first saved state, then stop as an interruption would."""
+    real_save = train_mod._save_state
+
+    def save_then_die(*a, **kw):
+        real_save(*a, **kw)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_mod, "_save_state", save_then_die)
+    with pytest.raises(KeyboardInterrupt):
+        train(data, out, cfg, bodies=(body, body), grid=GRID, progress=False)
+    monkeypatch.setattr(train_mod, "_save_state", real_save)
+
+
+@pytest.mark.parametrize("stored", ["the paper's values", "no floor or validation share named"])
+def test_a_run_started_with_the_papers_floor_and_share_resumes_with_them(tmp_path, monkeypatch, stored):
+    """A run whose state holds the paper's contact floor and validation share (0, 0), or names
+    neither (its net config no floor either), resumes with those values and ends as an uninterrupted
+    run of them; resuming it with TrainConfig's defaults (5 mmHg, 5 %) is refused by name."""
+    from pressurepose.net.train_config import PAPER_TRAINING
+
+    data = toy_dataset(4, seed=5, grid=GRID)
+    body = toy_body()
+    paper = TrainConfig(**PAPER_TRAINING, epochs_mod1=2, epochs_mod2=0, batch_size=4, lr=1e-4)
+    full = train(data, tmp_path / "full", paper, bodies=(body, body), grid=GRID, progress=False)
+    _cut_after_first_epoch(monkeypatch, data, tmp_path / "cut", paper, body)
+    state = tmp_path / "cut" / "state.json"
+    if stored != "the paper's values":
+        record = json.loads(state.read_text())
+        for name in PAPER_TRAINING:
+            del record["identity"]["train"][name]
+        del record["identity"]["net"]["inputs"]["contact_floor_mmhg"]
+        state.write_text(json.dumps(record))
+    before = state.read_text()
+    with pytest.raises(BadInput, match=r"different config.*train\.contact_floor_mmhg 0\.0 -> 5\.0.*"
+                                       r"train\.val_fraction 0\.0 -> 0\.05"):
+        train(data, tmp_path / "cut", TrainConfig(epochs_mod1=2, epochs_mod2=0, batch_size=4, lr=1e-4),
+              bodies=(body, body), grid=GRID, progress=False)
+    assert state.read_text() == before
+    resumed = train(data, tmp_path / "cut", paper, bodies=(body, body), grid=GRID, progress=False)
+    assert [r["train_loss"] for r in resumed.history] == [r["train_loss"] for r in full.history]
+    net, meta = load_model(resumed.model_path, bodies=(body, body))
+    assert net.config.inputs.contact_floor_mmhg == 0.0
+    assert (meta["train"]["contact_floor_mmhg"], meta["train"]["val_fraction"]) == (0.0, 0.0)
+    assert "val_mpjpe_cm" not in resumed.history[-1]  # trained on every sample, as it started
+
