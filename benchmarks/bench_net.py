@@ -233,7 +233,7 @@ def accuracy_section(model: str, data: str, batch_size: int = 64, limit: int | N
     if torch.cuda.is_available():
         net = net.to("cuda")
     test = load_dataset(data, limit=limit)
-    result = evaluate(test, net, batch_size=batch_size)
+    result = evaluate(test, net, batch_size=batch_size, progress=False)
     tr = meta.get("train", {})
     n_train = str(meta.get("data", "?")).split(":")[0]
     return (f"### Accuracy on {data} ({len(test)} test samples)\n\n"

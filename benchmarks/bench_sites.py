@@ -143,7 +143,7 @@ def time_night(data: dict, hours: float, model, out: Path, model_arg: str | None
     torch.set_num_threads(1)
     frames, turns = night_frames(data, hours)
     t0 = time.perf_counter()
-    tl = monitor(frames, frame_times(len(frames), fps=1.0), "f", model)
+    tl = monitor(frames, frame_times(len(frames), fps=1.0), "f", model, progress=False)
     seconds = time.perf_counter() - t0
     out.mkdir(parents=True, exist_ok=True)
     np.save(out / "night.npy", frames)

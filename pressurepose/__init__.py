@@ -16,6 +16,12 @@ fast (no PyTorch or MuJoCo until one is called)::
                        units="raw", weight_kg=87)
     pp.generate(pp.GenerationConfig(partition="general", gender="f", count=100, seed=1), "data/gen")
     result = pp.train(pp.load_dataset("data/gen"), "runs/net", pp.TrainConfig(epochs_mod1=2, epochs_mod2=1))
+
+Their defaults are the command line's: ``TrainConfig()`` holds the ``train`` verb's options, and the
+functions that run over a dataset, a recording or a training run (``generate``, ``train``,
+``evaluate``, ``evaluate_real``, ``monitor``) show a progress bar on stderr unless given
+``progress=False``; ``estimate``, called per image or per frame in loops, shows one only with
+``progress=True``.
 """
 
 from __future__ import annotations

@@ -48,7 +48,8 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int | str = 
     process imports the script first, as multiprocessing does). ray_address: run on Ray
     instead (``"local"`` starts a local instance); retries: extra tries for a failing unit before
     GenerationError; repair: set corrupt shards aside and remake them; only_shards: make just these
-    shards (the rest may stay missing). Returns a :class:`RunReport`.
+    shards (the rest may stay missing); progress: a progress bar on stderr (default True, as for every
+    function that runs over a dataset). Returns a :class:`RunReport`.
     """
     from pressurepose.data.progress import ProgressBar
 

@@ -510,7 +510,7 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
 
 # ---------------------------------------------------------------------------------------- the network
 def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorConfig(), batch_size: int = 64,
-            chunk: int = 512, progress: bool = False, *, mat=None, units: str | None = None, weight_kg=None,
+            chunk: int = 512, progress: bool = True, *, mat=None, units: str | None = None, weight_kg=None,
             gain: float | None = None, head_row: str = "first") -> Timeline:
     """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat (or
     a recording file or folder of them), times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
@@ -521,9 +521,10 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     they take :func:`recording_input`'s road onto the model's mat first, as the ``monitor`` verb's do.
     Only the frames :func:`select_frames` picks are estimated, ``chunk`` at a time (bounded memory),
     ``batch_size`` per network call. Every frame is checked for looking like a person lying on the
-    mat (:attr:`Timeline.doubtful`). BadInput for times that are not one increasing number per frame,
-    or that leave a gap longer than ``config.max_gap_s`` (:func:`check_times`), before any frame is
-    estimated."""
+    mat (:attr:`Timeline.doubtful`). progress: a progress bar over the chunks on stderr (default
+    True, as for every function that runs over a recording). BadInput for times that are not one
+    increasing number per frame, or that leave a gap longer than ``config.max_gap_s``
+    (:func:`check_times`), before any frame is estimated."""
     from pressurepose.body.sites import body_site_map
     from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.net.infer import (
@@ -561,7 +562,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
 
     for s in tqdm(range(0, len(idx), chunk), desc="monitor", unit="chunk", disable=not progress):
         part = idx[s:s + chunk]
-        est = estimate(p[part], gender, net, batch_size=batch_size)
+        est = estimate(p[part], gender, net, batch_size=batch_size, progress=False)  # within monitor's bar
         roll[s:s + len(part)] = roll_angle(est.pose)
         maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
     return timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))

@@ -153,10 +153,11 @@ class RealEvaluation:
 
 
 def evaluate_real(real: RealImages, model=None, config: RealEvalConfig = RealEvalConfig(),
-                  progress: bool = False) -> RealEvaluation:
+                  progress: bool = True) -> RealEvaluation:
     """Estimates and per-estimate scores of the images of ``real`` that are scored (see
     :func:`model_inputs`). model: a PressureNet, a model path or None (the shipped model), as
-    :func:`pressurepose.net.infer.estimate`'s. progress: a progress bar over the batches."""
+    :func:`pressurepose.net.infer.estimate`'s. progress: a progress bar over the batches on stderr
+    (default True, as for every function that runs over a dataset)."""
     from pressurepose.net.infer import estimate, resolve_model
 
     if not isinstance(real, RealImages):

@@ -44,7 +44,7 @@ def _layer_forward(net: PressureNet, gender: int):
 
 @torch.no_grad()
 def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | None = None, batch_size: int = 64,
-              progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
+              progress: bool = True, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
     """Per-sample errors (metres) of Mod2, Mod1 and the baseline on ``data``, plus the summary
     (:func:`summarise`): ``{"errors": {name: (N,) array}, "summary": {...}}``.
 
@@ -55,7 +55,8 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
     or out-of-range field). model: a PressureNet, a model path or None (the shipped
     model), as :func:`pressurepose.net.infer.estimate`'s.
     Vertex errors compare with the true bodies posed by the network's own body layer (same
-    topology); joint errors compare with the dataset's joints. progress: a progress bar over batches.
+    topology); joint errors compare with the dataset's joints. progress: a progress bar over batches on
+    stderr (default True, as for every function that runs over a dataset).
     mirror: average each estimate with the network's reading of the mirrored image
     (:mod:`pressurepose.net.mirror`). fit: True or a FitConfig: then move Mod2's body to fit each
     image's print (:mod:`pressurepose.net.fit`).

@@ -448,6 +448,9 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     estimated body to fit its image's print after the network (:mod:`pressurepose.net.fit`; about
     0.3 s of one CPU core an image).
     what: the input's name in messages (default: the file, or 'pressure').
+    progress: a progress bar over the batches on stderr; off by default, unlike the functions that
+    run over a dataset, a recording or a training run, since ``estimate`` is called per image or
+    per frame in loops.
 
     Each image (as the model reads it: mmHg on its mat) is checked for looking like a person lying
     on the mat (:func:`pressurepose.net.plausibility.check_plausible`): ``Estimate.plausibility``

@@ -310,14 +310,15 @@ def epoch_line(row: dict, epochs: int) -> str:
 
 def train(data: LoadedData | Mapping, out_dir: str | Path, config: TrainConfig = TrainConfig(),
           bodies: tuple[BodyModel, BodyModel] | None = None, grid: MatSpec | None = None,
-          progress: bool = False) -> TrainResult:
+          progress: bool = True) -> TrainResult:
     """Train Mod1 then Mod2 on ``data``; write logs, resumable state and the model into ``out_dir``.
 
     data: a :class:`~pressurepose.net.data.LoadedData` (:func:`~pressurepose.net.data.load_dataset`:
     a dataset or a training pack, on its own mat) or a mapping of arrays (the module docstring).
     bodies: (female, male) BodyModels (default the shipped ones). grid: the mat the images are on
     (default: a LoadedData's own, else the BodiTrak BT-3510). progress: a progress bar per epoch, a
-    line on stderr after each (:func:`epoch_line`), and one saying how far a run it resumes had gone.
+    line on stderr after each (:func:`epoch_line`), and one saying how far a run it resumes had gone
+    (default True, as for every function that runs over a dataset; False: nothing on stderr).
     """
     from pressurepose.files import check_output_path
 

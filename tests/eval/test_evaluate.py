@@ -191,3 +191,34 @@ def test_evaluate_checks_a_loaded_data_built_by_hand(setup):
     assert cast.tensors["pressure"].dtype == torch.float32 and cast.tensors["gender"].dtype == torch.int64
     np.testing.assert_array_equal(evaluate(cast, path)["errors"]["mod2_mpjpe"],
                                   evaluate(good, path)["errors"]["mod2_mpjpe"])
+
+
+def _bar(err: str, desc: str) -> bool:
+    """Whether ``err`` holds a tqdm bar labelled ``desc``."""
+    import re
+
+    return re.search(rf"{desc}: +\d+%\|", err) is not None
+
+
+def test_the_functions_that_run_over_a_dataset_or_recording_show_a_bar_and_estimate_does_not(setup, capsys):
+    """evaluate, evaluate_real and monitor show a progress bar on stderr by default, none with
+    progress=False; estimate (called per image or frame) shows none by default."""
+    from pressurepose.data.readers.recording import read_recording
+    from pressurepose.eval.monitor import frame_times, monitor
+    from pressurepose.eval.real import RealEvalConfig, evaluate_real
+
+    root, data, path = setup
+    frames = data["pressure"].numpy()
+    genders = ["fm"[int(g)] for g in data["gender"]]
+    calls = {"evaluate": lambda **kw: evaluate(root / "data", path, **kw),
+             "monitor": lambda **kw: monitor(frames, frame_times(len(frames), fps=1.0), "f", path, **kw),
+             "infer": lambda **kw: evaluate_real(read_recording(frames, "boditrak_bt3510", "mmHg"), path,
+                                                 RealEvalConfig(gender="f"), **kw)}
+    for desc, call in calls.items():
+        capsys.readouterr()
+        call()
+        assert _bar(capsys.readouterr().err, desc), desc
+        call(progress=False)
+        assert capsys.readouterr().err == "", desc
+    estimate(frames, genders, model=path)
+    assert capsys.readouterr().err == ""

@@ -279,3 +279,14 @@ def test_a_run_started_with_the_papers_floor_and_share_resumes_with_them(tmp_pat
     assert (meta["train"]["contact_floor_mmhg"], meta["train"]["val_fraction"]) == (0.0, 0.0)
     assert "val_mpjpe_cm" not in resumed.history[-1]  # trained on every sample, as it started
 
+
+def test_train_shows_its_progress_by_default_and_not_with_progress_false(tmp_path, capsys):
+    data = toy_dataset(4, seed=6, grid=GRID)
+    body = toy_body()
+    cfg = TrainConfig(epochs_mod1=1, epochs_mod2=0, batch_size=2, lr=1e-4)
+    train(data, tmp_path / "shown", cfg, bodies=(body, body), grid=GRID)
+    err = capsys.readouterr().err
+    assert re.search(r"mod1 epoch 1/1: +\d+%\|", err)  # the epoch's bar (tqdm)
+    assert re.search(r"mod1 epoch 1/1: loss \S+, joints", err)  # and its line
+    train(data, tmp_path / "quiet", cfg, bodies=(body, body), grid=GRID, progress=False)
+    assert capsys.readouterr().err == ""
