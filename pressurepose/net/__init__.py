@@ -3,7 +3,8 @@
 Modules (import from them; this package stays light):
 
 * ``transforms``: blur, Sobel edges, contact map, x2 upsampling, per-image normalisation, input channels
-* ``train_config``: the training options (``TrainConfig``, ``NoiseConfig``, the CNN's named widths); no torch
+* ``train_config``: the training options (``TrainConfig``, ``NoiseConfig``, the CNN's named widths,
+  ``PAPER_TRAINING``: the paper's values where the defaults are not); no torch
 * ``noise``: the training noise model
 * ``cnn``: the paper's CNN (67,200 features -> 88 outputs for a 128 x 54 input)
 * ``outputs`` / ``rotations``: soft-limited body parameters; root rotation from atan2 pairs (Euler)

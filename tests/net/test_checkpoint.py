@@ -235,3 +235,15 @@ def test_loading_the_shipped_model_leaves_pytorchs_compiler_unimported():
             "print('torch._dynamo' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_a_model_file_that_names_no_contact_floor_applies_none(tmp_path):
+    """A model's floor is its own (its config's inputs.contact_floor_mmhg), whatever TrainConfig's
+    default: one whose config does not name it loads with 0, the paper's, and reads as saved."""
+    net, body = _net()
+    path = save_model(tmp_path / "m.safetensors", net, (body, body))
+    record = json.loads((tmp_path / "m.json").read_text())
+    del record["config"]["inputs"]["contact_floor_mmhg"]
+    (tmp_path / "m.json").write_text(json.dumps(record))
+    loaded, _ = load_model(path)
+    assert loaded.config.inputs.contact_floor_mmhg == 0.0 and loaded.config == net.config
