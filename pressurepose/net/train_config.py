@@ -64,7 +64,8 @@ class TrainConfig:
     reads the gender flag (not in the paper).
     loss_sigmas: "paper" keeps the paper's sigma_s, sigma_beta; "data" computes them from the
     training set (sigma_Q, sigma_C always come from the data). val_fraction: share of samples held
-    out for the per-epoch validation (seeded split; default 0.05, the paper's 0 validates on none). gain: output gain (:mod:`.outputs`).
+    out for the per-epoch validation (seeded split; default 0.05, the paper's 0 validates on none).
+    gain: output gain (:mod:`.outputs`).
     lr_mod2: Mod2's learning rate (default: lr, as the paper). lr_schedule: "constant" (the paper)
     or "cosine" (each stage's rate falls from its lr to 0 along half a cosine over its epochs, set
     at the start of every epoch). dropout: the CNN's dropout (paper 0.1). use_pmr, edges_contact,
