@@ -23,7 +23,7 @@ def _train_config(tmp_path, monkeypatch, *extra):
     seen = {}
 
     def fake_train(tensors, out, config, **kwargs):
-        seen["config"] = config
+        seen["config"], seen["progress"] = config, kwargs["progress"]
         return train_module.TrainResult(out, [])
 
     monkeypatch.setattr(train_module, "train", fake_train)
@@ -31,18 +31,19 @@ def _train_config(tmp_path, monkeypatch, *extra):
         write_toy_dataset(tmp_path / "data", n=4)
     assert main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "run"), "--female", "toy",
                  "--male", "toy", *extra]) == 0
-    return seen["config"]
+    return seen["config"], seen["progress"]
 
 
 def test_every_train_flag_reaches_the_training_config(tmp_path, monkeypatch):
     from pressurepose.net.train_config import TrainConfig
 
-    d = _train_config(tmp_path, monkeypatch)
+    d, progress = _train_config(tmp_path, monkeypatch)
+    assert progress is True and _train_config(tmp_path, monkeypatch, "--no-progress")[1] is False
     assert d == TrainConfig()  # no options: the Python API's defaults, every field
     assert (d.lr_mod2, d.lr_schedule, d.gender_input, d.loss_sigmas, d.amp, d.save_every, d.cnn, d.cpu_amp,
             d.turn_loss, d.contact_floor_mmhg, d.val_fraction) == (None, "constant", False, "paper", True, 1,
                                                                   "paper", False, 0.0, 5.0, 0.05)
-    c = _train_config(tmp_path, monkeypatch, "--epochs-mod1", "3", "--epochs-mod2", "2", "--batch-size", "16",
+    c, _ = _train_config(tmp_path, monkeypatch, "--epochs-mod1", "3", "--epochs-mod2", "2", "--batch-size", "16",
                       "--lr", "1e-3", "--lr-mod2", "2e-4", "--lr-schedule", "cosine", "--weight-decay", "0",
                       "--no-noise", "--no-pmr", "--no-edges-contact", "--gender-input", "--loss-sigmas", "data",
                       "--val-fraction", "0.1", "--seed", "7", "--device", "cpu", "--no-amp", "--cpu-amp",

@@ -34,3 +34,10 @@ def add_recording_arguments(p: argparse.ArgumentParser, required: bool) -> None:
                    help="raw readings to mmHg by your mat's calibration: G mmHg per raw unit")
     p.add_argument("--head-row", choices=("first", "last"), default="first",
                    help=f"{when}which end of the rows is the head: first (row 0, default) or last (flipped)")
+
+
+def add_progress_argument(p: argparse.ArgumentParser, also: str = "") -> None:
+    """``--no-progress``: no progress bar on stderr (shared by every verb that draws one; ``also`` names
+    what else the flag keeps off stderr). The verb passes ``progress=not args.no_progress`` on."""
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar on stderr (for output going to a log file)" + (f"; {also}" if also else ""))

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from pressurepose.cli.args import MAX_EXAMPLES, seed_arg
+from pressurepose.cli.args import MAX_EXAMPLES, add_progress_argument, seed_arg
 from pressurepose.errors import BadInput
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
@@ -130,7 +130,7 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--repair", action="store_true",
                    help="set corrupt shards aside (renamed *.corrupt-<time>) and make them again")
     r.add_argument("--shards", type=_shards, help="make only these shards, e.g. 3 or 0-4,7 (one config)")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_argument(r)
 
 
 def run_generate(args: argparse.Namespace) -> int:
@@ -379,7 +379,7 @@ def add_repress_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output directory (new or empty, or the same run to resume)")
     p.add_argument("--skip-wedge", action="store_true",
                    help="leave out datasets of wedge partitions (propped_lateral) instead of refusing")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_argument(p)
 
 
 def run_repress(args: argparse.Namespace) -> int:

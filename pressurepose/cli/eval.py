@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from pressurepose.cli.args import add_progress_argument
+
 GALLERY_COUNT = 3  # gallery.png of evaluate-real: this many best and as many worst estimates
 
 
@@ -27,6 +29,7 @@ def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     add_mirror_argument(p)
     add_fit_argument(p)
     add_body_arguments(p)
+    add_progress_argument(p)
 
 
 EVALUATE_LEGEND = (
@@ -59,7 +62,7 @@ def run_evaluate(args) -> int:
     net = resolve_model(args.model, body_specs(args))
     net = net.to(device)
     data = load_dataset(args.data, limit=args.limit)
-    result = evaluate(data, net, batch_size=args.batch_size, progress=True, mirror=args.mirror, fit=args.fit)
+    result = evaluate(data, net, batch_size=args.batch_size, progress=not args.no_progress, mirror=args.mirror, fit=args.fit)
     table = format_table(result["summary"]) + "\n\n" + EVALUATE_LEGEND
     print(f"{len(data)} samples from {args.data}\n\n{table}")
     if out is not None:
@@ -114,6 +117,7 @@ def add_evaluate_real_arguments(p: argparse.ArgumentParser) -> None:
 
     add_mirror_argument(p)
     add_fit_argument(p)
+    add_progress_argument(p)
 
 
 def run_evaluate_real(args) -> int:
@@ -153,7 +157,7 @@ def run_evaluate_real(args) -> int:
     net = resolve_model(args.model).to(device)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = evaluate_real(real, net, config, progress=True)
+        result = evaluate_real(real, net, config, progress=not args.no_progress)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     s = result.summary

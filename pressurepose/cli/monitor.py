@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pressurepose.cli.args import add_recording_arguments
+from pressurepose.cli.args import add_progress_argument, add_recording_arguments
 from pressurepose.eval.monitor import (
     CAPILLARY_CLOSING_MMHG,
     REPOSITION_S,
@@ -56,6 +56,7 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
     from pressurepose.cli.net import add_body_arguments
 
     add_body_arguments(p)
+    add_progress_argument(p)
 
 
 def _timestamps(path):
@@ -148,7 +149,8 @@ def run_monitor(args) -> int:
     del raw
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        tl = monitor(frames, times, gender, net, config, batch_size=args.batch_size, progress=len(frames) > 2000)
+        tl = monitor(frames, times, gender, net, config, batch_size=args.batch_size,
+                     progress=len(frames) > 2000 and not args.no_progress)
     for w in caught[:5]:
         print(f"warning: {w.message}", file=sys.stderr)
     elapsed = time.perf_counter() - started

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pressurepose.cli.args import add_recording_arguments, seed_arg
+from pressurepose.cli.args import add_progress_argument, add_recording_arguments, seed_arg
 
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
@@ -65,6 +65,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--limit", type=int, default=None, help="use only the first N samples (default: all)")
     p.add_argument("--female", default="female", help="female body model: 'female' (shipped) or an SMPL-format file")
     p.add_argument("--male", default="male", help="male body model: 'male' (shipped) or an SMPL-format file")
+    add_progress_argument(p, also="nor a line per epoch (log.csv in --out has them)")
 
 
 def run_train(args) -> int:
@@ -100,7 +101,7 @@ def run_train(args) -> int:
     held = validation_count(len(data), config.val_fraction)
     print(f"training on {len(data) - held} samples" + (f", validating on {held}" if held else "")
           + f" ({data.mat}, {data.grid.rows} x {data.grid.cols}) into {args.out}")
-    result = train(data, args.out, config, bodies=(female, male), progress=True)
+    result = train(data, args.out, config, bodies=(female, male), progress=not args.no_progress)
     last = result.history[-1] if result.history else {}
     print(f"model: {result.model_path}"
           + (f"  (last epoch: loss {last['train_loss']:.4f}" + (f", val MPJPE {last['val_mpjpe_cm']:.2f} cm"
@@ -155,6 +156,7 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     add_mirror_argument(p)
     add_fit_argument(p)
     add_body_arguments(p)
+    add_progress_argument(p)
 
 
 def most_loaded(est, i: int) -> str:
@@ -278,7 +280,7 @@ def run_infer(args) -> int:
     else:
         gender = args.gender.split(",") if "," in args.gender else args.gender
     net = resolve_model(args.model, body_specs(args))
-    progress = args.mat is None and source.ndim == 3 and len(source) > 64
+    progress = args.mat is None and source.ndim == 3 and len(source) > 64 and not args.no_progress
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         est = estimate(source, gender, model=net, progress=progress, mirror=args.mirror, fit=args.fit,
@@ -292,8 +294,8 @@ def run_infer(args) -> int:
     from pressurepose.viz.sites import save_site_figures
 
     paths = est.save(out, mesh_format=args.mesh_format)
-    paths += save_estimate_figures(est, out, max_figures=args.max_figures, progress=True)
-    paths += save_site_figures(est, out, max_figures=args.max_figures, progress=True)
+    paths += save_estimate_figures(est, out, max_figures=args.max_figures, progress=not args.no_progress)
+    paths += save_site_figures(est, out, max_figures=args.max_figures, progress=not args.no_progress)
     print(f"{len(est)} estimate(s) written to {out} ({len(paths)} files)")
     if est.frame is not None:
         left_out = "" if list(est.frame) == list(range(len(est))) else "; the others blank or start-up frames"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pressurepose.cli.args import seed_arg
+from pressurepose.cli.args import add_progress_argument, seed_arg
 from pressurepose.pose.config import HEIGHT_REFERENCES
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 
@@ -88,6 +88,7 @@ def add_sample_arguments(p: argparse.ArgumentParser) -> None:
                    help="an SMPL-format .npz or SMPL .pkl to use instead of the shipped model of --gender")
     p.add_argument("--out", required=True, help="output .npz")
     p.add_argument("--plot", default=None, help="also draw up to 16 of the bodies from above into this PNG")
+    add_progress_argument(p)
 
 
 def run_sample(args) -> int:
@@ -125,7 +126,7 @@ def run_sample(args) -> int:
     config = SamplerConfig(**body_settings(args))
     t0 = time.perf_counter()
     parts = []
-    with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK) as bar:
+    with tqdm(total=args.count, desc="sample", unit="body", disable=args.count <= BLOCK or args.no_progress) as bar:
         for start in range(0, args.count, BLOCK):  # body k uses (seed, k) whatever the blocks
             parts.append(sample_bodies(partition, gender, min(BLOCK, args.count - start), args.seed,
                                        limbs_on_bed=args.limbs_on_bed, body=body, config=config, start=start))

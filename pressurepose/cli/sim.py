@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from pressurepose.cli.args import seed_arg
+from pressurepose.cli.args import add_progress_argument, seed_arg
 from pressurepose.pose.partitions import ALIASES, PARTITIONS
 from pressurepose.sim.wedge import FIELDS as WEDGE_FIELDS
 
@@ -40,6 +40,7 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
                                                 "pose, transl, joints, mass, height and wedge per body; gender, "
                                                 "partition and the rejection counts")
     p.add_argument("--plot", default=None, help="PNG: each pressure image beside the body at rest, seen from the side")
+    add_progress_argument(p)
 
 
 SIM_FIELDS = ("pressure", "force", "depth", "contact", "betas", "pose", "transl", "joints", "mass", "height")
@@ -86,11 +87,21 @@ def _resume(partial, run_key: str, count: int):
     return done, rejected
 
 
+NOT_IN_KEY = ("out", "plot", "count", "mat", "bed", "no_progress")  # options that change no body
+
+
+def simulate_key(args, partition: str, gender: str, bed) -> str:
+    """The JSON text that ties a partial file to its command: every option that decides the bodies (the
+    outputs, the count and the progress bar do not; the mat and bed enter as the bed's record)."""
+    import json
+
+    return json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_") and k not in NOT_IN_KEY},
+                       "partition": partition, "gender": gender, "bed": bed.to_dict()}, sort_keys=True, default=str)
+
+
 def run_simulate(args) -> int:
     """Settle and press ``count`` bodies (attempt a of body i uses seed (seed, i, a)). Finished bodies
     go to OUT's ``.partial.npz`` as they come; rerunning the same command resumes from it."""
-    import json
-
     from tqdm import tqdm
 
     from pressurepose.body import BodyModel, canonical_gender
@@ -118,15 +129,13 @@ def run_simulate(args) -> int:
     body, bed = BodyModel(gender), bed_for(args.mat, args.bed)
     sampler = SamplerConfig(**body_settings(args))
     settle_config = settle_preset(args.settle)
-    # everything but the outputs and the count decides the bodies: a partial file of another command is refused
-    run_key = json.dumps({**{k: v for k, v in vars(args).items() if not k.startswith("_")
-                             and k not in ("out", "plot", "count", "mat", "bed")}, "partition": partition,
-                          "gender": gender, "bed": bed.to_dict()}, sort_keys=True, default=str)
+    run_key = simulate_key(args, partition, gender, bed)
     partial = out.with_name(f"{out.stem}.partial.npz")
     done, rejected = _resume(partial, run_key, args.count)
     if done:
         print(f"resuming: {len(done)} bodies already finished in {partial}")
-    for i in tqdm(range(len(done), args.count), desc="simulate", unit="body", initial=len(done), total=args.count):
+    for i in tqdm(range(len(done), args.count), desc="simulate", unit="body", initial=len(done), total=args.count,
+                  disable=args.no_progress):
         for attempt in range(100):
             sim = simulate_one(body, bed, partition, gender,
                                np.random.default_rng([args.seed, i, attempt]), args.limbs_on_bed, sampler,

@@ -116,6 +116,15 @@ def test_roll_errors_wrap_and_tell_a_flatter_reading():
     np.testing.assert_allclose(turn_err, [-20.0, -5.0, 10.0], atol=1e-6)   # 50 for 70: read flatter
 
 
+def test_evaluate_verb_shows_a_bar_unless_told_not_to(setup, capsys):
+    root, _, path = setup
+    args = ["evaluate", "--model", str(path), "--data", str(root / "data")]
+    assert main(args) == 0
+    assert "evaluate: 100%" in capsys.readouterr().err
+    assert main([*args, "--no-progress"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_evaluate_verb(setup, capsys):
     root, _, path = setup
     assert main(["evaluate", "--model", str(path), "--data", str(root / "data"), "--out", str(root / "rep")]) == 0

@@ -157,6 +157,10 @@ def test_infer_verb_on_npy_csv_and_hdf5(model_path, tmp_path, capsys):
     assert main(["infer", str(tmp_path / "one.csv"), "--gender", "m", "--model", str(model_path),
                  "--out", str(tmp_path / "b"), "--mesh-format", "obj", "--max-figures", "0"]) == 0
     assert "pictures" not in capsys.readouterr().err  # none drawn, no bar
+    assert main(["infer", str(tmp_path / "batch.npy"), "--gender", "f,m", "--model", str(model_path),
+                 "--out", str(tmp_path / "quiet"), "--no-progress"]) == 0
+    err = capsys.readouterr().err  # the toy images' warnings, and no bar
+    assert "pictures" not in err and "%|" not in err and (tmp_path / "quiet" / "estimate_001.png").exists()
     assert (tmp_path / "b" / "mesh_000.obj").exists() and not (tmp_path / "b" / "estimate_000.png").exists()
     b = json.loads((tmp_path / "b" / "estimate.json").read_text())["estimates"][0]
     np.testing.assert_allclose(b["joints"], rec[0]["joints"], atol=1e-4)  # same image; both genders are the toy body here
