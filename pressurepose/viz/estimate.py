@@ -80,20 +80,22 @@ def drop_spent_layout(fig) -> None:
 def save_numbered_figures(out_dir: str | Path, prefix: str, count: int, draw, progress: str = "") -> list[Path]:
     """Write ``PREFIX000.png``... : ``draw(i)`` for i < ``count`` into ``out_dir``, removing numbered
     pictures of the same prefix an earlier, longer estimate left there. Returns the paths written.
-    progress: the label of a progress bar over the pictures (about a second each); "" for none."""
-    import matplotlib.pyplot as plt
-    from tqdm import tqdm
-
+    progress: the label of a progress bar over the pictures (about a second each); "" for none.
+    Matplotlib is loaded only when there is a picture to draw."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for i in tqdm(range(count), desc=progress, unit="picture", disable=not progress or not count):
-        p = out / f"{prefix}{i:03d}.png"
-        fig = draw(i)
-        drop_spent_layout(fig)
-        save_figure_atomic(fig, p, dpi=110)
-        plt.close(fig)
-        paths.append(p)
+    if count:
+        import matplotlib.pyplot as plt
+        from tqdm import tqdm
+
+        for i in tqdm(range(count), desc=progress, unit="picture", disable=not progress):
+            p = out / f"{prefix}{i:03d}.png"
+            fig = draw(i)
+            drop_spent_layout(fig)
+            save_figure_atomic(fig, p, dpi=110)
+            plt.close(fig)
+            paths.append(p)
     remove_stale_numbered(out, prefix, (".png",), paths)
     return paths
 
