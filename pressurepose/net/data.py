@@ -76,13 +76,17 @@ def save_pack(data: LoadedData, path: str | Path) -> None:
                     partition_names=np.array(data.partition_names), **arrays)
 
 
-def check_arrays(arrays, image_shape: tuple[int, int], partitions: int, what: str) -> None:
+def check_arrays(arrays, image_shape: tuple[int, int], partitions: int | None, what: str) -> None:
     """BadInput naming ``what`` and the field unless ``arrays`` ({field: numpy array}) hold N samples
     of pressure (N, rows, cols) mmHg >= 0 for ``image_shape`` (rows, cols) and the labels of
     :data:`_LABEL_SHAPES` (betas (N, 10), pose (N, 72) rad, transl (N, 3) m, joints (N, 24, 3) m,
-    gender (N,) 0 'f' / 1 'm', partition (N,) an index below ``partitions``), all numbers, all finite."""
+    gender (N,) 0 'f' / 1 'm', partition (N,) an index below ``partitions``), all numbers, all finite.
+    ``partitions`` None: no partition field (training reads none)."""
     n = len(arrays["pressure"]) if np.ndim(arrays["pressure"]) else 0
-    for k, shape in {"pressure": tuple(image_shape), **_LABEL_SHAPES}.items():
+    shapes = {"pressure": tuple(image_shape), **_LABEL_SHAPES}
+    if partitions is None:
+        del shapes["partition"]
+    for k, shape in shapes.items():
         a = arrays[k]
         if a.shape != (n, *shape):
             raise BadInput(f"{what}: {k} has shape {a.shape}; expected {(n, *shape)}")
@@ -95,6 +99,8 @@ def check_arrays(arrays, image_shape: tuple[int, int], partitions: int, what: st
     if not np.isin(arrays["gender"], (0, 1)).all():
         raise BadInput(f"{what}: gender must be 0 or 1 (female, male); it holds "
                        f"{sorted(set(np.unique(arrays['gender']).tolist()) - {0, 1})[:3]}")
+    if partitions is None:
+        return
     part = arrays["partition"].astype(np.float64)
     if not (np.all(part == np.floor(part)) and ((part >= 0) & (part < partitions)).all()):
         raise BadInput(f"{what}: partition must be an index of its {partitions} partition_names (0 to "
@@ -125,14 +131,14 @@ def check_loaded(data) -> LoadedData:
     bad = [k for k in need if not isinstance(tensors[k], (torch.Tensor, np.ndarray))]
     if bad:
         raise BadInput(f"{what}: tensors[{bad[0]!r}] is {type(tensors[bad[0]]).__name__}; expected a torch tensor")
-    arrays = {k: _numpy(tensors[k]) for k in need}
+    arrays = {k: as_numpy(tensors[k]) for k in need}
     check_arrays(arrays, data.grid.shape, len(names), what)
     out = {k: torch.as_tensor(np.ascontiguousarray(arrays[k]), dtype=torch.float32) for k in FIELDS}
     out.update({k: torch.as_tensor(arrays[k]).long() for k in ("gender", "partition")})
     return LoadedData({**tensors, **out}, data.grid, str(data.mat), tuple(names))
 
 
-def _numpy(t) -> np.ndarray:
+def as_numpy(t) -> np.ndarray:
     """A tensor's values as a numpy array (its memory where it can; bfloat16 as float32)."""
     if not isinstance(t, torch.Tensor):
         return np.asarray(t)

@@ -46,7 +46,7 @@ from pressurepose.errors import BadInput, record_difference
 from pressurepose.files import atomic_write, write_json_atomic, write_text_atomic
 from pressurepose.mat import MatSpec
 from pressurepose.net.checkpoint import bodies_meta, gendered_body, save_model
-from pressurepose.net.data import LoadedData
+from pressurepose.net.data import LoadedData, as_numpy, check_arrays
 from pressurepose.net.device import resolve_device
 from pressurepose.net.losses import dataset_scales, joint_error, loss_l1, loss_l2
 from pressurepose.net.model import GENDER_CODES, NetConfig, PressureNet
@@ -56,7 +56,7 @@ from pressurepose.net.pmr import PMRConfig, pmr
 from pressurepose.net.train_config import CNN_VARIANTS, PAPER_TRAINING, TrainConfig
 from pressurepose.net.transforms import InputConfig, apply_floor
 
-DATA_KEYS = {"pressure": None, "gender": None, "betas": (10,), "pose": (72,), "transl": (3,), "joints": (24, 3)}
+DATA_KEYS = ("pressure", "gender", "betas", "pose", "transl", "joints")  # what training reads (module docstring)
 
 
 @dataclass
@@ -69,37 +69,28 @@ class TrainResult:
 
 # ---------------------------------------------------------------------------------------- data
 def as_training_data(data: Mapping, grid: MatSpec) -> dict[str, torch.Tensor]:
-    """Validate and convert a data mapping (see the module docstring) to float32/long tensors."""
+    """The arrays of :data:`DATA_KEYS` in ``data`` (a mapping, the module docstring) as tensors, float32
+    (gender int64, 'f' / 'm' read as 0 / 1), checked as a dataset is on loading
+    (:func:`pressurepose.net.data.check_arrays`: shapes, finite numbers, pressure >= 0, gender 0 or 1);
+    BadInput naming the field otherwise. pressure: (N, rows, cols) mmHg on ``grid``."""
     missing = [k for k in DATA_KEYS if k not in data]
     if missing:
         raise BadInput(f"training data lacks {', '.join(missing)}; expected keys {', '.join(DATA_KEYS)}")
-    g = data["gender"]
-    if not isinstance(g, torch.Tensor) and np.asarray(g).dtype.kind in "USO":
+    arrays = {k: as_numpy(data[k]) for k in DATA_KEYS}
+    if arrays["gender"].dtype.kind in "USO":
         try:
-            g = [GENDER_CODES[str(x).lower()] for x in np.asarray(g).reshape(-1)]
+            arrays["gender"] = np.array([GENDER_CODES[str(x).lower()] for x in arrays["gender"].reshape(-1)])
         except KeyError as exc:
             raise BadInput(f"training data gender {exc.args[0]!r}: expected 'f' or 'm'") from None
-    out = {"gender": torch.as_tensor(np.asarray(g) if not isinstance(g, torch.Tensor) else g).long().reshape(-1)}
-    n = out["gender"].shape[0]
-    for k, shp in DATA_KEYS.items():
-        if k == "gender":
-            continue
-        t = torch.as_tensor(np.asarray(data[k]) if not isinstance(data[k], torch.Tensor) else data[k]).float()
-        want = (n, *grid.shape) if k == "pressure" else (n, *shp)
-        if tuple(t.shape) != want:
-            mat = (f" on the {grid.name} mat; for images of another mat give train() that mat (grid=) or the "
-                   f"LoadedData of load_dataset, which carries it") if k == "pressure" else ""
-            raise BadInput(f"training data {k} has shape {tuple(t.shape)}; expected {want}{mat}")
-        if not bool(torch.isfinite(t).all()):
-            raise BadInput(f"training data {k} contains NaN or infinite values")
-        out[k] = t
-    if bool((out["pressure"] < 0).any()):
-        raise BadInput("training data pressure has negative values; expected pressures >= 0")
-    if bool(((out["gender"] < 0) | (out["gender"] > 1)).any()):
-        raise BadInput("training data gender must be 0 (female) or 1 (male)")
-    if n < 1:
+    if np.shape(arrays["pressure"])[1:] != grid.shape:
+        raise BadInput(f"training data pressure has shape {np.shape(arrays['pressure'])}; expected images of "
+                       f"{grid.rows} x {grid.cols} on the {grid.name} mat; for images of another mat give train() "
+                       f"that mat (grid=) or the LoadedData of load_dataset, which carries it")
+    check_arrays(arrays, grid.shape, None, "training data")
+    if not len(arrays["pressure"]):
         raise BadInput("training data is empty")
-    return out
+    out = {k: torch.as_tensor(np.ascontiguousarray(a), dtype=torch.float32) for k, a in arrays.items() if k != "gender"}
+    return {"gender": torch.as_tensor(arrays["gender"]).long(), **out}
 
 
 def _fingerprint(data: dict[str, torch.Tensor]) -> str:

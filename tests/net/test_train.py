@@ -2,6 +2,7 @@ import csv
 import json
 import re
 
+import numpy as np
 import pytest
 import torch
 
@@ -81,12 +82,19 @@ def test_bad_training_data_is_refused(tmp_path):
     for key, value, match in [("pressure", torch.zeros(2, 15, 16), "shape"),
                               ("pressure", torch.full((2, 16, 16), -1.0), "negative"),
                               ("joints", torch.full((2, 24, 3), float("nan")), "NaN"),
-                              ("gender", ["f", "x"], "gender")]:
+                              ("gender", ["f", "x"], "gender"),
+                              ("gender", torch.tensor([0, 2]), r"gender must be 0 or 1.*\[2\]"),
+                              ("betas", torch.zeros(2, 9), r"training data: betas has shape \(2, 9\); expected \(2, 10\)"),
+                              ("transl", np.array([["a"] * 3] * 2), "transl holds <U1 values; expected numbers")]:
         bad = dict(data, **{key: value})
         with pytest.raises(BadInput, match=match):
             train(bad, tmp_path, TrainConfig(epochs_mod1=0, epochs_mod2=0), bodies=(body, body), grid=GRID)
     with pytest.raises(BadInput, match="lacks"):
         train({k: v for k, v in data.items() if k != "betas"}, tmp_path, bodies=(body, body), grid=GRID)
+    with pytest.raises(BadInput, match="empty"):
+        train({k: v[:0] for k, v in data.items()}, tmp_path, bodies=(body, body), grid=GRID)
+    d = as_training_data(dict(data, gender=["m", "f"]), GRID)  # the one check, no partition needed
+    assert d["gender"].tolist() == [1, 0] and d["pressure"].dtype == torch.float32 and "partition" not in d
     with pytest.raises(BadInput):
         TrainConfig(loss_sigmas="other")
 
