@@ -303,7 +303,7 @@ def run_infer(args) -> int:
 
         g = net.config.grid
         own = resolve_mat(args.mat)[0]
-        same = (own.rows, own.cols, own.pitch_row_m, own.pitch_col_m) == (g.rows, g.cols, g.pitch_row_m, g.pitch_col_m)
+        same = own.same_grid(g)
         print(f"  {'frame' if len(est.frame) == 1 else 'frames'} {frame_ranges(est.frame)} of {args.pressure_file} "
               f"(counted from 0{left_out}), on the {args.mat} mat, "
               + ("the model's own" if same else f"resampled onto the model's {g.rows} x {g.cols}"))

@@ -42,6 +42,12 @@ def _layer_forward(net: PressureNet, gender: int):
     return forward
 
 
+def grid_text(grid) -> str:
+    """'64 x 27 taxels at 28.6 x 28.6 mm' for a MatSpec: rows x cols, and the taxel pitch along the bed
+    x across it."""
+    return f"{grid.rows} x {grid.cols} taxels at {1000 * grid.pitch_row_m:.3g} x {1000 * grid.pitch_col_m:.3g} mm"
+
+
 @torch.no_grad()
 def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | None = None, batch_size: int = 64,
               progress: bool = True, mirror: bool = False, fit: bool | FitConfig = False) -> dict:
@@ -50,7 +56,8 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
 
     data: a :class:`pressurepose.net.data.LoadedData` or what
     :func:`~pressurepose.net.data.load_dataset` reads (a dataset, a folder of datasets of one split,
-    a training pack), on the model's mat; a LoadedData built by hand is checked as a training pack
+    a training pack), on the model's mat (its rows, cols and taxel pitches; BadInput naming both mats
+    otherwise); a LoadedData built by hand is checked as a training pack
     is (:func:`~pressurepose.net.data.check_loaded`: BadInput naming a missing, misshapen, non-finite
     or out-of-range field). model: a PressureNet, a model path or None (the shipped
     model), as :func:`pressurepose.net.infer.estimate`'s.
@@ -72,9 +79,10 @@ def evaluate(data: LoadedData | str | Path, model: PressureNet | str | Path | No
     data = check_loaded(data) if isinstance(data, LoadedData) else load_dataset(data)
     if len(data) == 0:
         raise BadInput("no samples to evaluate")
-    if data.grid.shape != net.config.grid.shape:
-        raise BadInput(f"the dataset's mat ({data.mat}, {data.grid.rows} x {data.grid.cols}) is not the model's "
-                       f"({net.config.grid.rows} x {net.config.grid.cols})")
+    if not data.grid.same_grid(net.config.grid):
+        raise BadInput(f"the dataset's mat ({data.mat}, {grid_text(data.grid)}) is not the model's "
+                       f"({net.config.grid.name}, {grid_text(net.config.grid)}): evaluate a model on images of "
+                       f"its own mat")
     fitting = fit_config(fit)
     require_bool("mirror", mirror)
     net.eval()

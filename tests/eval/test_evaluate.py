@@ -93,8 +93,15 @@ def test_evaluate_refuses_a_dataset_of_another_mat(setup):
     root, data, path = setup
     other = custom_mat(rows=64, cols=32, pitch_row_m=0.028)
     tensors = dict(data, pressure=torch.zeros(4, 64, 32), partition=torch.zeros(4, dtype=torch.long))
-    with pytest.raises(BadInput, match=r"dataset's mat \(fsa, 64 x 32\) is not the model's \(64 x 27\)"):
+    with pytest.raises(BadInput, match=r"dataset's mat \(fsa, 64 x 32 taxels at 28 x 28 mm\) is not the model's "
+                                        r"\(boditrak_bt3510, 64 x 27 taxels at 28.6 x 28.6 mm\)"):
         evaluate(LoadedData(tensors, other, "fsa", ("general_supine",)), path)
+    # a mat of the model's rows and cols at another pitch: its images show bodies at another scale
+    finer = custom_mat(rows=64, cols=27, pitch_row_m=0.02)
+    with pytest.raises(BadInput, match=r"\(custom, 64 x 27 taxels at 20 x 20 mm\) is not the model's "
+                                        r"\(boditrak_bt3510, 64 x 27 taxels at 28.6 x 28.6 mm\): evaluate a model"):
+        evaluate(LoadedData(dict(data, partition=torch.zeros(4, dtype=torch.long)), finer, "custom",
+                            ("general_supine",)), path)
     with pytest.raises(BadInput, match="data come first"):
         evaluate(resolve_model(path), root / "data")
 
