@@ -155,29 +155,6 @@ def save_figure_atomic(fig, path: str | Path, **savefig_kwargs) -> None:
     atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig_kwargs))
 
 
-MESH_FORMATS = ("ply", "obj")
-
-
-def mesh_bytes(vertices: np.ndarray, faces: np.ndarray, mesh_format: str) -> bytes:
-    """A triangle mesh as a file: ``ply`` (binary little-endian, float32 x, y, z and int32 triangles)
-    or ``obj`` (text, coordinates to 8 decimals, 1-based triangles), as trimesh writes them, without
-    loading trimesh. vertices: (V, 3), metres; faces: (F, 3) indices into them."""
-    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    if mesh_format == "ply":
-        header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v)}\nproperty float x\n"
-                  f"property float y\nproperty float z\nelement face {len(f)}\n"
-                  f"property list uchar int vertex_indices\nend_header\n")
-        tri = np.empty(len(f), dtype=[("n", "u1"), ("v", "<i4", (3,))])
-        tri["n"], tri["v"] = 3, f
-        return header.encode("ascii") + v.astype("<f4").tobytes() + tri.tobytes()
-    if mesh_format == "obj":
-        lines = [f"v {x:.8f} {y:.8f} {z:.8f}" for x, y, z in v.tolist()]
-        lines += [f"f {a} {b} {c}" for a, b, c in (f + 1).tolist()]
-        return ("\n".join(lines) + "\n\n").encode("ascii")
-    raise BadInput(f"mesh format {mesh_format!r}: expected {' or '.join(MESH_FORMATS)}")
-
-
 def remove_stale_numbered(folder: str | Path, prefix: str, suffixes: tuple[str, ...], written) -> None:
     """Remove the numbered files ``<prefix><digits><suffix>`` (``mesh_000.ply``, ``estimate_1000.png``)
     in ``folder`` that are not among the paths ``written``: an earlier, longer run's, which would

@@ -29,12 +29,10 @@ from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32, require_bool, require_whole
 from pressurepose.files import (
-    MESH_FORMATS,
+    atomic_write,
     check_output_path,
-    mesh_bytes,
     remove_stale_numbered,
     save_npz_atomic,
-    write_bytes_atomic,
     write_json_atomic,
 )
 from pressurepose.mat import MatSpec
@@ -158,7 +156,9 @@ class Estimate:
         """Write estimate.json, estimate.npz, sites.json (with site loads) and one mesh per image
         (``mesh_000.ply`` or ``.obj``), removing the numbered meshes an earlier estimate left in
         ``out_dir``. Returns the paths written (pictures: :func:`pressurepose.viz.estimate.save_estimate_figures`)."""
-        if mesh_format not in MESH_FORMATS:
+        import trimesh
+
+        if mesh_format not in ("ply", "obj"):
             raise BadInput(f"mesh format {mesh_format!r}: expected ply or obj")
         out = check_output_path(out_dir, "output folder", directory=True)
         out.mkdir(parents=True, exist_ok=True)
@@ -177,7 +177,8 @@ class Estimate:
             write_json_atomic(paths[-1], self.sites_record())
         for i in range(len(self)):
             p = out / f"mesh_{i:03d}.{mesh_format}"
-            write_bytes_atomic(p, mesh_bytes(self.vertices[i], self.faces, mesh_format))
+            mesh = trimesh.Trimesh(self.vertices[i], self.faces, process=False)
+            atomic_write(p, lambda t, mesh=mesh: mesh.export(str(t), file_type=mesh_format))
             paths.append(p)
         remove_stale_numbered(out, "mesh_", (".ply", ".obj"), paths)  # an earlier, longer estimate's
         return paths
