@@ -79,14 +79,19 @@ def read_samples(root: Path) -> dict:
             "pose": np.stack([s.pose for s in samples])}
 
 
-def compare(data: dict, model, fit: bool = False) -> dict:
+def compare(data: dict, model, fit: bool = False, site_net: bool = True) -> dict:
     """Per-image errors of the estimated site loads against the simulator's (arrays over images);
-    fit: the estimates fitted to their prints (``estimate(..., fit=True)``, ``--fit``)."""
+    fit: the estimates fitted to their prints (``estimate(..., fit=True)``, ``--fit``); site_net:
+    False reads each taxel's site from the estimated body alone (``Estimate.site_net = None``)."""
+    import dataclasses
+
     from pressurepose.body.sites import NO_SITE, OTHER, site_stats
     from pressurepose.net.infer import estimate
 
     p = data["pressure"]
     est = estimate(p, list(data["gender"]), model=model, fit=fit)
+    if not site_net:
+        est = dataclasses.replace(est, site_net=None)
     truth = site_stats(p, np.where(p > 0, data["sites"], NO_SITE), est.grid)
     e, t = est.sites, truth
     diff = np.abs(e.share - t.share)
@@ -179,6 +184,10 @@ def main(argv=None) -> int:
         rows.append(f"| {name} | {int(m.sum())} | {r['share_mae_pp'][m].mean():.2f} | {r['loaded_mae_pp'][m].mean():.1f} | "
                     f"{np.nanmean(r['peak_mae_mmhg'][m]):.1f} | {r['top_right'][m].mean():.2f} | "
                     f"{r['named_top_right'][m].mean():.2f} | {r['named_top_close'][m].mean():.2f} |")
+    b = compare(data, model, site_net=False)
+    rows.append(f"| all, each taxel the site of the estimated body over it (no site network) | {len(data['gender'])} | "
+                f"{b['share_mae_pp'].mean():.2f} | {b['loaded_mae_pp'].mean():.1f} | {np.nanmean(b['peak_mae_mmhg']):.1f} | "
+                f"{b['top_right'].mean():.2f} | {b['named_top_right'].mean():.2f} | {b['named_top_close'].mean():.2f} |")
     f = compare(data, model, fit=True)
     rows.append(f"| all, the estimates fitted to their prints (`--fit`) | {len(data['gender'])} | "
                 f"{f['share_mae_pp'].mean():.2f} | {f['loaded_mae_pp'].mean():.1f} | {np.nanmean(f['peak_mae_mmhg']):.1f} | "
@@ -194,8 +203,9 @@ def main(argv=None) -> int:
         "## Pressure per body site (`benchmarks/bench_sites.py`)", "",
         f"`{command}`; {stamp()}; " + ("the shipped model" if args.model is None else f"model `{args.model}`")
         + f"; {len(data['gender'])} simulated images: {source}. The truth is the body site that carried each "
-        "taxel's force in the press (`Sample.sites`); the estimate splits each image over the sites of the "
-        "estimated body (moved by whole taxels onto the image's print, then the vertex of its lowest triangle over each taxel). Share errors in percentage points "
+        "taxel's force in the press (`Sample.sites`); the estimate splits each image over the sites the site "
+        "network reads from the image and the estimated body's site map (`pressurepose.net.sitenet`, trained on "
+        "other simulated data: `tools/train_site_net.py`). Share errors in percentage points "
         f"(pp) of the image's load, averaged over images; 'loaded sites' are those carrying at least "
         f"{100 * LOADED:.0f} % of the load in the truth or the estimate; the peak error is over the sites "
         f"loaded in the truth. The most loaded site in the truth: "
@@ -205,12 +215,9 @@ def main(argv=None) -> int:
         f"({'met' if share <= SHARE_GOAL_PP else 'not met'}), {r['loaded_mae_pp'].mean():.1f} pp over the loaded "
         f"sites; the most loaded site right in at least {100 * TOP_GOAL:.0f} % of images: {100 * top:.0f} % "
         f"({'met' if top >= TOP_GOAL else 'not met'}), {100 * named_top:.0f} % among the named sites "
-        f"({'met' if named_top >= TOP_GOAL else 'not met'}) (the default estimates; the last row reads the "
-        "estimates fitted to their prints, docs/training.md). Finer moves of the estimated body, a roll or "
-        "turn of it, or a move per patch of the print named the most loaded site at most about a point "
-        "more often, within the noise, on 300 images of other seeds (docs/not-adopted.md, \"Reading body sites\"): the misses are near ties "
-        "in the truth (mostly scapulae against `other` lying on the back) read from the estimated body's "
-        "own shape; the true simulated body read the same way names it in 95-97 %.",
+        f"({'met' if named_top >= TOP_GOAL else 'not met'}) (the default estimates; the second last row gives "
+        "each loaded taxel the site of the estimated body's skin over it, the body route without the site "
+        "network; the last row reads the estimates fitted to their prints, docs/training.md).",
     ]
     if args.night_hours > 0:
         n = time_night(data, args.night_hours, model, args.out, args.model)

@@ -133,8 +133,9 @@ def run_pack(args) -> int:
 def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
                      "betas, pose, joints (JSON and NPZ), meshes and pictures, and the load on each body site "
-                     "under the estimated body (sites.json: peak and mean mmHg, contact area, share of the load; "
-                     "sites_000.png). Without --mat the images are mmHg "
+                     "(sites.json: peak and mean mmHg, contact area, share of the load; sites_000.png; each loaded "
+                     "taxel's site read from the estimated body and the image by the site network shipped for the "
+                     "model's mat, docs/monitoring.md). Without --mat the images are mmHg "
                      "on the model's own mat. With --mat, FILE is a recording from that mat (any size, raw or "
                      "mmHg): its frames are cleaned, put in mmHg and resampled onto the model's mat as "
                      "evaluate-real does (docs/real-mats.md).")

@@ -4,8 +4,10 @@ A recording is T pressure frames (T, R, C) mmHg on a model's mat at times (T,) s
 reads it with PressureNet: a frame is estimated only when its load has changed by more than
 ``change`` (relative L1: sum |p - p_ref| / max(sum p, sum p_ref)) since the last estimated frame;
 the frames between share that frame's body. Every frame's own readings are then split over the
-body sites under that body (:mod:`pressurepose.body.sites`), so per-site pressure follows every
-frame while the network runs only when the person moves. The rest are pure functions over arrays:
+body sites of that frame's site map (:func:`pressurepose.body.sites.body_site_map`, its loaded
+taxels read again by the site network where one ships for the mat, as ``estimate()`` reads them:
+:mod:`pressurepose.net.sitenet`), so per-site pressure follows every frame while the networks run
+only when the person moves. The rest are pure functions over arrays:
 
 * posture: each body's roll (:func:`pressurepose.pose.posture.roll_angle`) gives its class,
   'supine', 'left' / 'right' (the side lain on) or 'prone'; a frame with fewer than
@@ -535,6 +537,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         resolve_model,
     )
     from pressurepose.net.plausibility import check_plausible
+    from pressurepose.net.sitenet import read_taxel_sites
     from pressurepose.pose.posture import roll_angle
 
     if not isinstance(config, MonitorConfig):
@@ -564,7 +567,11 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         part = idx[s:s + chunk]
         est = estimate(p[part], gender, net, batch_size=batch_size, progress=False)  # within monitor's bar
         roll[s:s + len(part)] = roll_angle(est.pose)
-        maps[s:s + len(part)] = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
+        body = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
+        if est.site_net is not None:  # the loaded taxels' sites read by the site network, as estimate() reads them
+            read = read_taxel_sites(est.site_net, p[part], np.where(p[part] > 0, body, NO_SITE))
+            body = np.where(read >= 0, read, body)
+        maps[s:s + len(part)] = body
     return timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
 
 

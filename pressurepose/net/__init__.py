@@ -16,4 +16,6 @@ Modules (import from them; this package stays light):
   with its mirror's; ``fit``: moving an estimated body onto its image's print; ``plausibility``: whether
   an image looks like a person lying on the mat; ``data``: generated datasets and training packs in
   memory (``load_dataset``)
+* ``sitenet``: the site network, which reads the body site of each loaded taxel from the image and
+  the estimated body's site map; ``sitenet_train``: its training
 """

@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from pressurepose.body.sites import SITES, SiteLoads, body_loads, vertex_sites
+from pressurepose.body.sites import SITES, SiteLoads, body_loads, site_stats, vertex_sites
 from pressurepose.data.readers.images import RealImages
 from pressurepose.data.readers.recording import read_array_file, read_recording
 from pressurepose.errors import BadInput, finite_float32, require_bool, require_whole
@@ -40,6 +40,7 @@ from pressurepose.net.fit import FitConfig, fit_config, fit_to_print
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.plausibility import Plausibility, check_plausible
 from pressurepose.net.pmr import PMRConfig, surface_maps
+from pressurepose.net.sitenet import SiteNet, read_taxel_sites, site_net_for
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
@@ -61,10 +62,13 @@ class Estimate:
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
     given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
     (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
-    read (about 10 ms a body on one CPU core): :attr:`sites`, the load on each body site under the estimated body
+    read (about 10 ms a body on one CPU core): :attr:`sites`, the load on each body site
     (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
     :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
-    surface (:func:`~pressurepose.body.sites.vertex_pressure`). plausibility: whether each input
+    surface (:func:`~pressurepose.body.sites.vertex_pressure`). site_net: the site network that
+    gives each loaded taxel its site from the image and the estimated body's site map
+    (:mod:`pressurepose.net.sitenet`; ``estimate()`` sets the shipped one when it reads the model's
+    mat); None: each taxel takes the site of the estimated body lying on it. plausibility: whether each input
     image looks like a person lying on the mat, and why not where it does not
     (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked): an estimate of an
     image that does not means nothing.
@@ -86,6 +90,7 @@ class Estimate:
     pmr: PMRConfig = PMRConfig()
     vertex_site: np.ndarray | None = None
     plausibility: Plausibility | None = None
+    site_net: SiteNet | None = None
     _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
     _sites: tuple[SiteLoads, np.ndarray] | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -125,12 +130,22 @@ class Estimate:
 
     def _site_loads(self) -> tuple[SiteLoads, np.ndarray] | None:
         if self._sites is None and self.vertex_site is not None:
-            self._sites = body_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid)
+            loads, on_skin = body_loads(self.pressure, self.vertices, self.faces, self.vertex_site, self.grid)
+            if self.site_net is not None:
+                loads = site_stats(self.pressure, read_taxel_sites(self.site_net, self.pressure, loads.taxel_site),
+                                   self.grid)
+            self._sites = (loads, on_skin)
         return self._sites
 
     @property
+    def sites_read_by(self) -> str:
+        """How each taxel got its site: 'site network' or 'estimated body'."""
+        return "estimated body" if self.site_net is None else "site network"
+
+    @property
     def sites(self) -> SiteLoads | None:
-        """The load on each body site under each estimated body (None without ``vertex_site``)."""
+        """The load on each body site of each image (None without ``vertex_site``), each taxel's site
+        read as :attr:`sites_read_by` says."""
         loads = self._site_loads()
         return None if loads is None else loads[0]
 
@@ -150,7 +165,7 @@ class Estimate:
             frame = {} if self.frame is None else {"frame": int(self.frame[i])}
             images.append({"image": i, **frame, "most_loaded": top or None, "sites": rec})
         return {"units": "peak and mean mmHg over the site's loaded taxels, contact area cm^2, share of the "
-                         "image's load", "sites": list(SITES), "images": images}
+                         "image's load", "sites": list(SITES), "sites_read_by": self.sites_read_by, "images": images}
 
     def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
         """Write estimate.json, estimate.npz, sites.json (with site loads) and one mesh per image
@@ -501,7 +516,8 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     vertices=cat(lambda a, b: b.vertices), faces=net.body.faces.cpu().numpy(),
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
                     mirror=bool(mirror), fitted=fitting is not None, frame=frame, pmr=net.config.pmr,
-                    vertex_site=vertex_sites_of(net, genders), plausibility=check_plausible(arr, net.config.grid))
+                    vertex_site=vertex_sites_of(net, genders), plausibility=check_plausible(arr, net.config.grid),
+                    site_net=site_net_for(net.config.grid))
 
 
 _VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

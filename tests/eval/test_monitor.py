@@ -277,6 +277,24 @@ def test_the_shipped_model_finds_every_turn_of_a_night_and_no_other():
 
 
 @pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
+def test_monitor_gives_each_estimated_frame_the_sites_estimate_gives_it():
+    """The timeline's site loads of the frames the network read are those of estimate() (its site
+    route, the site network where one ships for the mat), over the taxels monitor counts as loaded."""
+    from pressurepose.body.sites import NO_SITE, site_stats
+    from pressurepose.eval.monitor import monitor
+    from pressurepose.net.infer import estimate
+
+    frames, _ = night_recording([("supine", 40), ("left", 40)])
+    tl = monitor(frames, frame_times(len(frames), fps=1.0), "f", progress=False)
+    k = np.flatnonzero(tl.estimated)
+    est = estimate(frames[k], "f")
+    want = site_stats(frames[k], np.where(frames[k] > MonitorConfig().contact_mmhg, est.sites.taxel_site, NO_SITE),
+                      est.grid)
+    np.testing.assert_allclose(tl.share[k], want.share, atol=1e-9)
+    np.testing.assert_allclose(tl.peak_mmhg[k], want.peak_mmhg, atol=1e-4)
+
+
+@pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
 def test_monitor_reads_a_recording_on_its_own_mat_as_the_verb_does(tmp_path):
     """monitor(..., mat=, units=) takes a recording as recorded (here with its head at the last row,
     and as a file) down the same road as recording_input, and finds the turn."""
