@@ -29,7 +29,7 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "train": ("pressurepose.cli.net", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
     "pack": ("pressurepose.cli.net", "pack",
              "write a dataset's training arrays to one .npz file to copy to a GPU machine (train --data takes it)"),
-    "infer": ("pressurepose.cli.net", "infer", "estimate 3D pose and shape from pressure images with a trained PressureNet"),
+    "infer": ("pressurepose.cli.net", "infer", "estimate 3D pose and shape and the pressure per body site from pressure images"),
     "monitor": ("pressurepose.cli.monitor", "monitor",
                 "read a recording over time (a night): posture, turns, pressure per body site, time above a "
                 "threshold, alerts past a repositioning interval (JSON, CSV, PNG)"),

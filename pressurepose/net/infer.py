@@ -68,8 +68,8 @@ class Estimate:
     surface (:func:`~pressurepose.body.sites.vertex_pressure`). site_net: the site network that
     gives each loaded taxel its site from the image and the estimated body's site map
     (:mod:`pressurepose.net.sitenet`; ``estimate()`` sets the shipped one when it reads the model's
-    mat); None: each taxel takes the site of the estimated body lying on it. plausibility: whether each input
-    image looks like a person lying on the mat, and why not where it does not
+    mat); None: each taxel takes the site of the estimated body lying on it. plausibility: whether
+    each input image looks like a person lying on the mat, and why not where it does not
     (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked): an estimate of an
     image that does not means nothing.
     """
