@@ -62,8 +62,8 @@ class Estimate:
     frame: (B,) int, each image's frame index in the recording it was read from (None for images
     given on the model's mat); vertex_site (B, V) int8: the body site of each vertex of each body
     (:func:`~pressurepose.body.sites.vertex_sites`; None: no sites). From it, computed when first
-    read (10-20 ms an image on one CPU core, half of it the site network): :attr:`sites`, the load on each body site
-    (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
+    read (10-20 ms an image on one CPU core, half of it the site network): :attr:`sites`, the load
+    on each body site (:class:`~pressurepose.body.sites.SiteLoads`: peak, mean, area and share per site of
     :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
     surface (:func:`~pressurepose.body.sites.vertex_pressure`). site_net: the site network that
     gives each loaded taxel its site from the image and the estimated body's site map
