@@ -26,7 +26,9 @@ at ``--real``::
 
 Every step is a ``pressurepose`` CLI call that resumes if interrupted: rerun the same command and it
 keeps the finished shards and the last saved epoch. The model is copied into the package only with
-``--install``.
+``--install``; after installing a new model, rebuild the site network too
+(``python tools/train_site_net.py --work runs/sitenet --install``): it learned the shipped model's
+bodies.
 
 Budget (the defaults, which made the shipped model; 2-core CPU, about 3 hours; docs/training.md,
 docs/throughput.md and docs/RESULTS.md section shipped_model):
