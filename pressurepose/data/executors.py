@@ -106,7 +106,9 @@ class _Retries:
         n = self.used.get(unit, 0) + 1
         self.used[unit] = n
         if n > self.retries:
-            raise GenerationError(f"{unit} failed {n} times; giving up. Last error:\n{message}") from exc
+            hint = (f"\n(a worker process ended abruptly: killed for memory, or it could not start; {SCRIPT_GUARD})"
+                    if isinstance(exc, BrokenProcessPool) else "")
+            raise GenerationError(f"{unit} failed {n} times; giving up. Last error:\n{message}{hint}") from exc
         if self.on_failure:
             self.on_failure(unit, message)
 
@@ -198,7 +200,18 @@ def _abandon(pool: ProcessPoolExecutor) -> None:
             proc.terminate()
 
 
+# Python starts each worker process by importing the script that started the run again (the
+# forkserver and spawn start methods): a script whose top level runs generate would start it anew
+SCRIPT_GUARD = ("each worker process imports the script that started it again, so a script that runs generate "
+                "with several workers must keep its top-level code under `if __name__ == \"__main__\":`; or run "
+                "with one worker (--workers 1, workers=1)")
+
+
 def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> int:
+    if getattr(mp.current_process(), "_inheriting", False):
+        # this is a worker starting up, importing an unguarded script: end it before the rest of the
+        # script runs here too; the run that started it reports SCRIPT_GUARD when it gives up
+        raise SystemExit(f"pressurepose: {SCRIPT_GUARD}")
     tracker = _Retries(retries, on_failure)
     ctx = _context(units[0].config.producer)
     events = ctx.Queue()

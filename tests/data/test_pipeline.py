@@ -126,6 +126,20 @@ def test_failed_unit_is_retried_not_dropped(tmp_path):
         assert all(np.array_equal(a[f], b[f]) for f in ("pressure", "pose", "joints", "index"))
 
 
+def test_a_script_without_a_main_guard_is_told_to_add_one(tmp_path):
+    """Worker processes import the script that started them again: an unguarded script's workers end
+    at once (its code after generate does not run in them) and the run's error says what to do."""
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        f"import sys\nsys.path.insert(0, {str(Path(__file__).resolve().parents[2])!r})\n"
+        "from pressurepose.data.generate import generate\nfrom tests.data.helpers import small_config\n"
+        f"generate(small_config(count=4, shard_size=2), {str(tmp_path / 'out')!r}, workers=2, progress=False)\n"
+        "print('after generate')\n")
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert run.returncode != 0 and "after generate" not in run.stdout
+    assert 'if __name__ == "__main__":' in run.stderr and "--workers 1" in run.stderr
+
+
 def test_crashed_worker_process_is_retried(tmp_path):
     c = small_config(count=12, shard_size=6, producer="tests.data.helpers:crashing_producer",
                      options={"marker_dir": str(tmp_path)})
