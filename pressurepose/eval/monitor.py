@@ -227,7 +227,8 @@ class Timeline:
     all and the longest stretch};
     alerts; config; plausibility: whether each frame looks like a person lying on the mat
     (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked), read through
-    :attr:`doubtful`.
+    :attr:`doubtful`; sites_read_by: how each taxel got its site, 'site network' or 'estimated
+    body' (:attr:`pressurepose.net.infer.Estimate.sites_read_by`).
     """
 
     times_s: np.ndarray
@@ -244,6 +245,7 @@ class Timeline:
     alerts: list[Alert]
     config: MonitorConfig = field(default_factory=MonitorConfig)
     plausibility: Plausibility | None = None
+    sites_read_by: str = "estimated body"
 
     def __len__(self) -> int:
         return int(len(self.times_s))
@@ -261,7 +263,7 @@ class Timeline:
             "frames": len(self), "frames_estimated": int(self.estimated.sum()),
             "frames_doubtful": int(self.doubtful.sum()),
             "duration_s": _num(float(frame_durations(self.times_s).sum())),
-            "settings": dataclasses.asdict(self.config),
+            "settings": dataclasses.asdict(self.config), "sites_read_by": self.sites_read_by,
             "turns": [{k: _num(v) for k, v in dataclasses.asdict(t).items()} for t in self.turns],
             "posture_s": {k: _num(v) for k, v in self.posture_s.items()},
             "above_threshold_s": {k: _num(v) for k, v in self.above_s.items()},
@@ -561,6 +563,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     idx = np.flatnonzero(selection.estimated)
     roll = np.zeros(len(idx))
     maps = np.zeros((len(idx), *grid.shape), dtype=np.int8)
+    read_by = "estimated body"
     from tqdm import tqdm
 
     for s in tqdm(range(0, len(idx), chunk), desc="monitor", unit="chunk", disable=not progress):
@@ -572,7 +575,9 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
             read = read_taxel_sites(est.site_net, p[part], np.where(p[part] > 0, body, NO_SITE))
             body = np.where(read >= 0, read, body)
         maps[s:s + len(part)] = body
-    return timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
+        read_by = est.sites_read_by
+    tl = timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
+    return dataclasses.replace(tl, sites_read_by=read_by)
 
 
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,

@@ -292,6 +292,7 @@ def test_monitor_gives_each_estimated_frame_the_sites_estimate_gives_it():
                       est.grid)
     np.testing.assert_allclose(tl.share[k], want.share, atol=1e-9)
     np.testing.assert_allclose(tl.peak_mmhg[k], want.peak_mmhg, atol=1e-4)
+    assert tl.sites_read_by == est.sites_read_by == tl.summary()["sites_read_by"]
 
 
 @pytest.mark.skipif(not NIGHT_FRAMES.is_file(), reason="tools/record_night_frames.py has not been run")
