@@ -111,6 +111,9 @@ def site_inputs(pressure: np.ndarray, body_sites: np.ndarray, config: SiteNetCon
     if p.ndim != 3 or s.shape != p.shape or p.shape[1:] != config.grid.shape:
         raise BadInput(f"pressure {p.shape} and body sites {s.shape}: expected both (B, {config.grid.rows}, "
                        f"{config.grid.cols}), the site network's mat")
+    if s.dtype.kind not in "iu" or (s.size and (s.min() < NO_SITE or s.max() >= len(SITES))):
+        raise BadInput(f"body sites must be integers from {NO_SITE} (no site) to {len(SITES) - 1} (indices into "
+                       f"SITES); got {s.dtype} from {s.min() if s.size else '-'} to {s.max() if s.size else '-'}")
     B, R, C = p.shape
     x = np.zeros((B, N_INPUTS, R, C), np.float32)
     x[:, 0] = np.clip(p / config.max_mmhg, 0.0, 2.0)

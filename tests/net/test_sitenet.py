@@ -59,6 +59,10 @@ def test_inputs_one_hot_the_body_sites_and_scale_the_pressure():
     assert x[0, 2, -1, 0] == 1 and x[0, 3, 0, -1] == 1
     with pytest.raises(BadInput, match=r"\(B, 12, 7\)"):
         site_inputs(p[:, :5], body[:, :5], SiteNetConfig(GRID))
+    with pytest.raises(BadInput, match="indices into SITES"):
+        site_inputs(p, np.full(p.shape, len(SITES), np.int8), SiteNetConfig(GRID))
+    with pytest.raises(BadInput, match="integers"):
+        site_inputs(p, body.astype(np.float32), SiteNetConfig(GRID))
 
 
 def test_loss_is_the_weighted_cross_entropy_over_loaded_taxels():
