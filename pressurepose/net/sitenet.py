@@ -19,7 +19,7 @@ A site network is saved as ``NAME.json`` (format, config, training notes) with i
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -159,6 +159,8 @@ def load_site_net(path: str | Path) -> SiteNet:
     from safetensors.torch import load_file
 
     path = require_path("site network", path)
+    if not path.is_file():
+        raise BadInput(f"site network {str(path)!r} does not exist")
     try:
         record = json.loads(path.read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:

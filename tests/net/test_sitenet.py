@@ -117,6 +117,8 @@ def test_a_saved_network_loads_and_reads_the_same(tmp_path):
 
 
 def test_loading_refuses_what_is_not_a_site_network(tmp_path):
+    with pytest.raises(BadInput, match="does not exist"):
+        load_site_net(tmp_path / "absent.json")
     (tmp_path / "x.json").write_text(json.dumps({"format": "something else"}))
     with pytest.raises(BadInput, match="not a site network"):
         load_site_net(tmp_path / "x.json")
