@@ -234,12 +234,20 @@ def _run_pool(units, workers, retries, on_result, on_progress, on_failure) -> in
     running: dict = {}
     try:
         while todo or running:
-            while todo and len(running) < workers:  # only running units are in flight
-                unit = todo.popleft()
-                running[pool.submit(_run_unit_in_worker, unit)] = unit
-            done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
-            drain()
             broken = False
+            while todo and len(running) < workers:  # only running units are in flight
+                unit = todo[0]
+                try:
+                    fut = pool.submit(_run_unit_in_worker, unit)
+                except BrokenProcessPool:  # a worker died since the last wait: the unit never started
+                    broken = True
+                    break
+                running[fut] = todo.popleft()
+            if broken:  # keep what finished before the pool broke
+                done = {fut for fut in running if fut.done()}
+            else:
+                done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+            drain()
             for fut in done:
                 unit = running.pop(fut)
                 try:

@@ -156,6 +156,28 @@ def test_crashed_worker_process_is_retried(tmp_path):
     assert not multiprocessing.active_children()
 
 
+def test_pool_found_broken_when_submitting_is_replaced(tmp_path, monkeypatch):
+    """A worker can die between one wait and the next submit: the submit itself then raises. The unit
+    it was for never ran; the run starts a new pool and still writes every sample."""
+    from concurrent.futures.process import BrokenProcessPool, ProcessPoolExecutor
+
+    from pressurepose.data import executors
+
+    submits = [0]
+
+    class BreaksOnThirdSubmit(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            submits[0] += 1
+            if submits[0] == 3:
+                raise BrokenProcessPool("a child process terminated abruptly")
+            return super().submit(fn, *args, **kwargs)
+
+    monkeypatch.setattr(executors, "ProcessPoolExecutor", BreaksOnThirdSubmit)
+    report = generate(small_config(count=12, shard_size=3), tmp_path / "d", workers=2, progress=False)
+    assert submits[0] > 4 and report.manifest.complete
+    assert len(read_shard_arrays(tmp_path / "d" / shard_name(0))["pressure"]) == 3
+
+
 def test_unit_that_keeps_failing_fails_loudly(tmp_path):
     c = small_config(count=12, shard_size=6, producer="tests.data.helpers:broken_producer")
     with pytest.raises(GenerationError, match=r"(?s)shard 0 \(samples 0..5\) failed 3 times; giving up.*always fails"):
