@@ -82,16 +82,12 @@ def read_samples(root: Path) -> dict:
 def compare(data: dict, model, fit: bool = False, site_net: bool = True) -> dict:
     """Per-image errors of the estimated site loads against the simulator's (arrays over images);
     fit: the estimates fitted to their prints (``estimate(..., fit=True)``, ``--fit``); site_net:
-    False reads each taxel's site from the estimated body alone (``Estimate.site_net = None``)."""
-    import dataclasses
-
+    False reads each taxel's site from the estimated body alone (``estimate(..., site_net=None)``)."""
     from pressurepose.body.sites import NO_SITE, OTHER, site_stats
     from pressurepose.net.infer import estimate
 
     p = data["pressure"]
-    est = estimate(p, list(data["gender"]), model=model, fit=fit)
-    if not site_net:
-        est = dataclasses.replace(est, site_net=None)
+    est = estimate(p, list(data["gender"]), model=model, fit=fit, site_net="auto" if site_net else None)
     truth = site_stats(p, np.where(p > 0, data["sites"], NO_SITE), est.grid)
     e, t = est.sites, truth
     diff = np.abs(e.share - t.share)

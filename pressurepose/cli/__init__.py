@@ -29,6 +29,8 @@ VERBS: dict[str, tuple[str, str, str]] = {
     "train": ("pressurepose.cli.net", "train", "train PressureNet (Mod1 then Mod2) on a generated dataset; resumable"),
     "pack": ("pressurepose.cli.net", "pack",
              "write a dataset's training arrays to one .npz file to copy to a GPU machine (train --data takes it)"),
+    "train-sites": ("pressurepose.cli.net", "train_sites",
+                    "train a site network for a PressureNet (which body site carries each loaded taxel); resumable"),
     "infer": ("pressurepose.cli.net", "infer", "estimate 3D pose and shape and the pressure per body site from pressure images"),
     "monitor": ("pressurepose.cli.monitor", "monitor",
                 "read a recording over time (a night): posture, turns, pressure per body site, time above a "

@@ -53,8 +53,9 @@ def add_monitor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--model", default=None, help="trained model (default: the shipped PressureNet)")
     p.add_argument("--batch-size", type=int, default=64, help="frames per forward pass (default 64)")
-    from pressurepose.cli.net import add_body_arguments
+    from pressurepose.cli.net import add_body_arguments, add_site_net_argument
 
+    add_site_net_argument(p)
     add_body_arguments(p)
     add_progress_argument(p)
 
@@ -105,7 +106,7 @@ def run_monitor(args) -> int:
     import numpy as np
 
     from pressurepose.body.sites import site_label
-    from pressurepose.cli.net import body_specs
+    from pressurepose.cli.net import body_specs, site_net_choice
     from pressurepose.data.readers.recording import read_frames, resolve_mat
     from pressurepose.data.schema import check_gender
     from pressurepose.errors import BadInput
@@ -139,6 +140,9 @@ def run_monitor(args) -> int:
                            max_gap_s=args.max_gap_s)
     gender = check_gender(args.gender)
     net = resolve_model(args.model, body_specs(args))
+    from pressurepose.net.sitenet import resolve_site_net
+
+    site_net = resolve_site_net(site_net_choice(args.site_net), net.config.grid)  # refused before reading
     mat, _ = resolve_mat(args.mat)
     started = time.perf_counter()
     raw = read_frames(args.recording, mat.shape)
@@ -149,7 +153,7 @@ def run_monitor(args) -> int:
     del raw
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        tl = monitor(frames, times, gender, net, config, batch_size=args.batch_size,
+        tl = monitor(frames, times, gender, net, config, batch_size=args.batch_size, site_net=site_net,
                      progress=len(frames) > 2000 and not args.no_progress)
     for w in caught[:5]:
         print(f"warning: {w.message}", file=sys.stderr)

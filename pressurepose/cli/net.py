@@ -1,4 +1,5 @@
-"""CLI verbs ``pressurepose train``, ``pressurepose pack`` and ``pressurepose infer``."""
+"""CLI verbs ``pressurepose train``, ``pressurepose pack``, ``pressurepose train-sites`` and
+``pressurepose infer``."""
 
 from __future__ import annotations
 
@@ -134,8 +135,8 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.description = ("Estimate 3D body pose and shape from pressure images with a trained PressureNet; write "
                      "betas, pose, joints (JSON and NPZ), meshes and pictures, and the load on each body site "
                      "(sites.json: peak and mean mmHg, contact area, share of the load; sites_000.png; each loaded "
-                     "taxel's site read from the estimated body and the image by the site network shipped for the "
-                     "model's mat, docs/monitoring.md). Without --mat the images are mmHg "
+                     "taxel's site read from the estimated body and the image by a site network, docs/monitoring.md). "
+                     "Without --mat the images are mmHg "
                      "on the model's own mat. With --mat, FILE is a recording from that mat (any size, raw or "
                      "mmHg): its frames are cleaned, put in mmHg and resampled onto the model's mat as "
                      "evaluate-real does (docs/real-mats.md).")
@@ -156,8 +157,76 @@ def add_infer_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-figures", type=int, default=16, help="PNG pictures for at most this many images (default 16)")
     add_mirror_argument(p)
     add_fit_argument(p)
+    add_site_net_argument(p)
     add_body_arguments(p)
     add_progress_argument(p)
+
+
+def add_site_net_argument(p: argparse.ArgumentParser) -> None:
+    """--site-net for verbs that read body sites (pressurepose.net.sitenet)."""
+    p.add_argument("--site-net", default="auto", metavar="FILE",
+                   help="site network that gives each loaded taxel its body site from the image and the estimated "
+                        "body: a sitenet.json from `train-sites` (for a model of your own), or none (the estimated "
+                        "body alone); default auto: the one shipped for the model's mat, if the model reads it")
+
+
+def site_net_choice(value: str):
+    """--site-net's value as estimate()'s site_net: 'auto', None for 'none', else the file."""
+    return None if value == "none" else value
+
+
+def add_train_sites_arguments(p: argparse.ArgumentParser) -> None:
+    from pressurepose.net.sitenet_train import VAL_FRACTION, SiteTrainConfig
+
+    d = SiteTrainConfig()
+    p.description = ("Train a site network for a PressureNet: it learns to give each loaded taxel the body site "
+                     "the simulator recorded under it, from the image and the site map of the body the model "
+                     "estimates (docs/monitoring.md). Needed for a model of your own, above all on another mat; "
+                     "pass the result to infer and monitor with --site-net, or to estimate(site_net=...). "
+                     f"{100 * VAL_FRACTION:g} % of the samples are held out to report how often the most loaded site "
+                     "is named right, with and without it. Rerunning the same command resumes from the last epoch.")
+    p.add_argument("--data", required=True,
+                   help="dataset directory (or a folder of datasets) from `generate` on the model's mat; its samples "
+                        "record each taxel's body site")
+    p.add_argument("--model", default=None, help="the trained PressureNet it serves (.json, .pt or a run folder); "
+                                                "default: the shipped model")
+    p.add_argument("--out", required=True, help="folder: sitenet.json and sitenet.safetensors, and the state to resume")
+    p.add_argument("--epochs", type=int, default=d.epochs, help=f"passes over the data (default {d.epochs})")
+    p.add_argument("--seed", type=seed_arg, default=d.seed, help=f"seed of the split, shuffling, noise and init "
+                                                                 f"(default {d.seed})")
+    add_body_arguments(p)
+    add_progress_argument(p, also="nor the loss per epoch")
+
+
+def run_train_sites(args) -> int:
+    from pressurepose.files import check_output_path
+    from pressurepose.net.infer import resolve_model
+    from pressurepose.net.sitenet_train import (
+        SiteTrainConfig,
+        held_out_split,
+        load_site_data,
+        most_loaded_right,
+        train_site_net,
+    )
+
+    out = check_output_path(args.out, "--out", directory=True)
+    config = SiteTrainConfig(epochs=args.epochs, seed=args.seed)
+    net = resolve_model(args.model, body_specs(args))
+    data = load_site_data(args.data, model=net, progress=not args.no_progress)
+    train, held = held_out_split(data, args.seed)
+    g = data.grid
+    print(f"training a site network on {len(train)} samples, holding out {len(held)} ({g.rows} x {g.cols} mat) "
+          f"into {out}")
+    site_net = train_site_net(train, config, out=out, progress=not args.no_progress)
+    print(f"site network: {out / 'sitenet.json'}")
+    if len(held):
+        net_right, body_right = most_loaded_right(held, site_net), most_loaded_right(held, None)
+        print(f"most loaded body site named right in the {len(held)} held-out images: {100 * net_right:.1f} % with "
+              f"it, {100 * body_right:.1f} % from the estimated body alone")
+        if net_right < body_right:
+            print("warning: the site network names the most loaded site less often than the estimated body alone; "
+                  "train it on more data or for more epochs, or do not use it", file=sys.stderr)
+    return 0
 
 
 def most_loaded(est, i: int) -> str:
@@ -285,8 +354,7 @@ def run_infer(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         est = estimate(source, gender, model=net, progress=progress, mirror=args.mirror, fit=args.fit,
-                       what=str(args.pressure_file),
-                       **recording)
+                       what=str(args.pressure_file), site_net=site_net_choice(args.site_net), **recording)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     for line in doubt_lines(est, str(args.pressure_file)):

@@ -5,8 +5,8 @@ reads it with PressureNet: a frame is estimated only when its load has changed b
 ``change`` (relative L1: sum |p - p_ref| / max(sum p, sum p_ref)) since the last estimated frame;
 the frames between share that frame's body. Every frame's own readings are then split over the
 body sites of that frame's site map (:func:`pressurepose.body.sites.body_site_map`, its loaded
-taxels read again by the site network where one ships for the mat, as ``estimate()`` reads them:
-:mod:`pressurepose.net.sitenet`), so per-site pressure follows every frame while the networks run
+taxels read again by a site network as ``estimate()`` reads them, by default the one shipped
+for the mat: :mod:`pressurepose.net.sitenet`), so per-site pressure follows every frame while the networks run
 only when the person moves. The rest are pure functions over arrays:
 
 * posture: each body's roll (:func:`pressurepose.pose.posture.roll_angle`) gives its class,
@@ -515,10 +515,10 @@ def timeline(times, frames, selection: FrameSelection, roll, site_maps, mat: Mat
 # ---------------------------------------------------------------------------------------- the network
 def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorConfig(), batch_size: int = 64,
             chunk: int = 512, progress: bool = True, *, mat=None, units: str | None = None, weight_kg=None,
-            gain: float | None = None, head_row: str = "first") -> Timeline:
+            gain: float | None = None, head_row: str = "first", site_net="auto") -> Timeline:
     """The timeline of a recording read by PressureNet: frames (T, R, C) mmHg on the model's mat (or
-    a recording file or folder of them), times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model as
-    :func:`pressurepose.net.infer.estimate`'s. With ``mat`` (preset name, mat.json or MatSpec),
+    a recording file or folder of them), times (T,) s (:func:`frame_times`), gender 'f' / 'm'; model and
+    site_net as :func:`pressurepose.net.infer.estimate`'s. With ``mat`` (preset name, mat.json or MatSpec),
     frames are a recording on that mat as it was recorded (an array (T, rows, cols) or a recording
     file or folder, :func:`~pressurepose.data.readers.recording.read_frames`), in ``units`` ('raw'
     or 'mmHg'; raw readings become mmHg by ``weight_kg`` or ``gain``), with the head at ``head_row``:
@@ -539,7 +539,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         resolve_model,
     )
     from pressurepose.net.plausibility import check_plausible
-    from pressurepose.net.sitenet import read_taxel_sites
+    from pressurepose.net.sitenet import read_taxel_sites, resolve_site_net
     from pressurepose.pose.posture import roll_angle
 
     if not isinstance(config, MonitorConfig):
@@ -551,6 +551,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     gender = _genders(gender, 1)[0]
     net = resolve_model(model)
     grid = net.config.grid
+    site_net = resolve_site_net(site_net, grid)
     if mat is None:
         refuse_recording_settings(units, weight_kg, gain, head_row)
     if isinstance(frames, (str, Path)):  # frames as stored, on the recording's mat or else the model's
@@ -563,19 +564,18 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
     idx = np.flatnonzero(selection.estimated)
     roll = np.zeros(len(idx))
     maps = np.zeros((len(idx), *grid.shape), dtype=np.int8)
-    read_by = "estimated body"
+    read_by = "estimated body" if site_net is None else "site network"  # as Estimate.sites_read_by says
     from tqdm import tqdm
 
     for s in tqdm(range(0, len(idx), chunk), desc="monitor", unit="chunk", disable=not progress):
         part = idx[s:s + chunk]
-        est = estimate(p[part], gender, net, batch_size=batch_size, progress=False)  # within monitor's bar
+        est = estimate(p[part], gender, net, batch_size=batch_size, progress=False, site_net=site_net)  # in monitor's bar
         roll[s:s + len(part)] = roll_angle(est.pose)
         body = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
         if est.site_net is not None:  # the loaded taxels' sites read by the site network, as estimate() reads them
             read = read_taxel_sites(est.site_net, p[part], np.where(p[part] > 0, body, NO_SITE))
             body = np.where(read >= 0, read, body)
         maps[s:s + len(part)] = body
-        read_by = est.sites_read_by
     tl = timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
     return dataclasses.replace(tl, sites_read_by=read_by)
 

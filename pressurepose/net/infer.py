@@ -40,7 +40,7 @@ from pressurepose.net.fit import FitConfig, fit_config, fit_to_print
 from pressurepose.net.model import GENDER_CODES, PressureNet
 from pressurepose.net.plausibility import Plausibility, check_plausible
 from pressurepose.net.pmr import PMRConfig, surface_maps
-from pressurepose.net.sitenet import SiteNet, read_taxel_sites, site_net_for
+from pressurepose.net.sitenet import AUTO, SiteNet, read_taxel_sites, resolve_site_net
 
 DEFAULT_MODEL = Path(__file__).parent / "assets" / "pressurenet.json"
 SENSOR_MAX_MMHG = 100.0  # top of the range of every mat preset (pressurepose.mat.MATS)
@@ -67,8 +67,7 @@ class Estimate:
     :data:`~pressurepose.body.sites.SITES`), and :attr:`vertex_pressure` (B, V) mmHg on the body's
     surface (:func:`~pressurepose.body.sites.vertex_pressure`). site_net: the site network that
     gives each loaded taxel its site from the image and the estimated body's site map
-    (:mod:`pressurepose.net.sitenet`; ``estimate()`` sets the shipped one when it reads the model's
-    mat); None: each taxel takes the site of the estimated body lying on it. plausibility: whether
+    (:mod:`pressurepose.net.sitenet`; ``estimate()`` sets the one its ``site_net`` names); None: each taxel takes the site of the estimated body lying on it. plausibility: whether
     each input image looks like a person lying on the mat, and why not where it does not
     (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked): an estimate of an
     image that does not means nothing.
@@ -442,7 +441,7 @@ def read_batch(net: PressureNet, pressure: torch.Tensor, gender: torch.Tensor, m
 def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[str, str] | None = None,
              progress: bool = False, mirror: bool = False, fit: bool | FitConfig = False, *, mat=None,
              units: str | None = None, weight_kg=None, gain: float | None = None, head_row: str = "first",
-             what: str | None = None) -> Estimate:
+             what: str | None = None, site_net=AUTO) -> Estimate:
     """Estimate body pose and shape from pressure images.
 
     pressure: one image (R, C) or a batch (B, R, C), mmHg, on the model's mat (numpy or torch, or a
@@ -463,6 +462,10 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     estimated body to fit its image's print after the network (:mod:`pressurepose.net.fit`; about
     0.3 s of one CPU core an image).
     what: the input's name in messages (default: the file, or 'pressure').
+    site_net: what reads each loaded taxel's body site (``Estimate.sites``): 'auto' (default: the
+    site network shipped for the model's mat, when there is one), a site network file trained for
+    this model (``pressurepose train-sites``), a loaded SiteNet, or None (the estimated body alone);
+    :func:`pressurepose.net.sitenet.resolve_site_net`.
     progress: a progress bar over the batches on stderr; off by default, unlike the functions that
     run over a dataset, a recording or a training run, since ``estimate`` is called per image or
     per frame in loops.
@@ -480,6 +483,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
     fitting = fit_config(fit)
     require_bool("mirror", mirror)
     net = resolve_model(model, bodies)
+    site_net = resolve_site_net(site_net, net.config.grid)  # refused before any work
     frame = None
     if isinstance(pressure, RealImages) or mat is not None:
         real = pressure if isinstance(pressure, RealImages) else read_recording(
@@ -517,7 +521,7 @@ def estimate(pressure, gender, model=None, batch_size: int = 64, bodies: tuple[s
                     pressure=arr, gender=genders, mod1_joints=cat(lambda a, b: a.joints), grid=net.config.grid,
                     mirror=bool(mirror), fitted=fitting is not None, frame=frame, pmr=net.config.pmr,
                     vertex_site=vertex_sites_of(net, genders), plausibility=check_plausible(arr, net.config.grid),
-                    site_net=site_net_for(net.config.grid))
+                    site_net=resolve_site_net(site_net, net.config.grid))
 
 
 _VERTEX_SITES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

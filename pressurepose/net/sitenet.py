@@ -169,7 +169,7 @@ def load_site_net(path: str | Path) -> SiteNet:
         raise BadInput(f"{str(path)!r} is not a site network (expected format {FORMAT!r})")
     if record.get("sites", list(SITES)) != list(SITES):
         raise BadInput(f"site network {str(path)!r} names the sites {record['sites']}; this pressurepose has "
-                       f"{list(SITES)}: train it again (tools/train_site_net.py)")
+                       f"{list(SITES)}: train it again (pressurepose train-sites)")
     net = SiteNet(SiteNetConfig.from_dict(record.get("config", {})))
     weights = path.parent / str(record.get("weights", ""))
     if not weights.is_file():
@@ -189,7 +189,38 @@ def shipped_site_net() -> SiteNet | None:
     return load_site_net(SHIPPED) if SHIPPED.is_file() else None
 
 
-def site_net_for(grid: MatSpec) -> SiteNet | None:
-    """The shipped site network when it reads ``grid``'s mat, else None (sites from the body alone)."""
-    net = shipped_site_net()
-    return net if net is not None and net.config.grid.same_grid(grid) else None
+@lru_cache(maxsize=4)
+def _cached_site_net(path: str, mtime: float) -> SiteNet:
+    return load_site_net(path)  # mtime: a file written anew is loaded anew
+
+
+AUTO = "auto"
+
+
+def resolve_site_net(site_net, grid: MatSpec) -> SiteNet | None:
+    """The site network that reads the loaded taxels of a model on ``grid``'s mat.
+
+    site_net: 'auto' (the shipped one when it reads ``grid``'s mat, else None), None (none: each
+    taxel's site comes from the estimated body alone), a site network file (``NAME.json``, from
+    ``pressurepose train-sites``) or a :class:`SiteNet`. BadInput when a given network reads
+    another mat than ``grid``'s."""
+    if isinstance(site_net, str) and site_net == AUTO:
+        net = shipped_site_net()
+        return net if net is not None and net.config.grid.same_grid(grid) else None
+    if site_net is None:
+        return None
+    if isinstance(site_net, (str, Path)):
+        path = require_path("site network", site_net)
+        if not path.is_file():
+            raise BadInput(f"site network {str(path)!r} does not exist")
+        net, what = _cached_site_net(str(path.resolve()), path.stat().st_mtime), f"site network {str(site_net)!r}"
+    elif isinstance(site_net, SiteNet):
+        net, what = site_net, "the site network"
+    else:
+        raise BadInput(f"site_net is {type(site_net).__name__}; expected 'auto', None, a site network file "
+                       f"(sitenet.json) or a SiteNet")
+    g = net.config.grid
+    if not g.same_grid(grid):
+        raise BadInput(f"{what} reads a {g.rows} x {g.cols} mat; the model reads {grid.rows} x {grid.cols}: "
+                       f"train one for the model (pressurepose train-sites)")
+    return net

@@ -26,7 +26,14 @@ from pressurepose.body.sites import NO_SITE, body_loads
 from pressurepose.errors import BadInput, require_whole
 from pressurepose.files import atomic_write
 from pressurepose.mat import MatSpec
-from pressurepose.net.sitenet import SiteNet, SiteNetConfig, mirrored_sites, save_site_net, site_inputs
+from pressurepose.net.sitenet import (
+    SiteNet,
+    SiteNetConfig,
+    mirrored_sites,
+    read_taxel_sites,
+    save_site_net,
+    site_inputs,
+)
 
 
 @dataclass(frozen=True)
@@ -70,36 +77,81 @@ class SiteData:
         return len(self.pressure)
 
 
-def body_route_sites(pressure: np.ndarray, gender, model=None, batch_size: int = 256) -> np.ndarray:
+def body_route_sites(pressure: np.ndarray, gender, model=None, batch_size: int = 256,
+                     progress: bool = False) -> np.ndarray:
     """(N, R, C) int8: the site map of the body PressureNet (``model``; None: the shipped one)
-    estimates for each image, as :func:`pressurepose.body.sites.body_loads` reads it."""
+    estimates for each image, as :func:`pressurepose.body.sites.body_loads` reads it (progress: a
+    bar over the batches on stderr)."""
+    from tqdm import tqdm
+
     from pressurepose.net.infer import estimate
 
     genders = [gender] * len(pressure) if isinstance(gender, str) else list(gender)
     out = []
-    for s in range(0, len(pressure), batch_size):
-        est = estimate(pressure[s:s + batch_size], genders[s:s + batch_size], model=model)
+    for s in tqdm(range(0, len(pressure), batch_size), desc="estimating bodies", unit="batch",
+                  disable=not progress):
+        est = estimate(pressure[s:s + batch_size], genders[s:s + batch_size], model=model, site_net=None)
         out.append(body_loads(est.pressure, est.vertices, est.faces, est.vertex_site, est.grid)[0].taxel_site)
     return np.concatenate(out)
 
 
-def load_site_data(root: str | Path, model=None) -> SiteData:
-    """Every sample under ``root`` (with its recorded sites) and the body route's site maps."""
+def load_site_data(root: str | Path, model=None, progress: bool = False) -> SiteData:
+    """Every sample under ``root`` (with its recorded sites) and the site maps of the bodies
+    ``model`` (None: the shipped PressureNet) estimates for them. BadInput when ``root`` holds no
+    samples, samples without recorded sites, or images on another mat than the model's."""
     from pressurepose.data.dataset import DatasetReader
     from pressurepose.net.infer import resolve_model
 
     samples = list(DatasetReader(root))
     if not samples:
         raise BadInput(f"{root} holds no samples")
-    if any(s.sites is None for s in samples):
-        raise BadInput(f"samples under {root} carry no body sites; generate data that records them")
+    missing = sum(s.sites is None for s in samples)
+    if missing:
+        raise BadInput(f"{missing} of {len(samples)} samples under {root} carry no body sites (made before the "
+                       f"simulator recorded them); generate the data again")
     pressure = np.stack([s.pressure for s in samples]).astype(np.float32)
-    grid = resolve_model(model).config.grid
+    net = resolve_model(model)
+    grid = net.config.grid
     if pressure.shape[1:] != grid.shape:
         raise BadInput(f"the samples under {root} are on a {pressure.shape[1]} x {pressure.shape[2]} mat; "
-                       f"the model reads {grid.rows} x {grid.cols}")
-    return SiteData(pressure=pressure, body_sites=body_route_sites(pressure, [s.gender for s in samples], model),
+                       f"the model reads {grid.rows} x {grid.cols}: generate them on the model's mat (--mat)")
+    return SiteData(pressure=pressure, body_sites=body_route_sites(pressure, [s.gender for s in samples], net,
+                                                                   progress=progress),
                     truth=np.stack([s.sites for s in samples]).astype(np.int8), grid=grid)
+
+
+VAL_FRACTION = 0.1  # share of the samples ``pressurepose train-sites`` holds out to report on
+
+
+def held_out_split(data: SiteData, seed: int, fraction: float = VAL_FRACTION) -> tuple[SiteData, SiteData]:
+    """(training, held out): a random ``fraction`` of the images (rounded down; seeded) held out."""
+    if not 0 <= fraction < 1:
+        raise BadInput(f"held-out fraction {fraction!r}; expected 0 <= fraction < 1")
+    order = np.random.default_rng([seed, 0x5173]).permutation(len(data))
+    held = np.sort(order[:int(fraction * len(data))])
+    keep = np.sort(order[len(held):])
+
+    def take(idx):
+        return SiteData(pressure=data.pressure[idx], body_sites=data.body_sites[idx], truth=data.truth[idx],
+                        grid=data.grid)
+
+    return take(keep), take(held)
+
+
+def most_loaded_right(data: SiteData, site_net: SiteNet | None) -> float:
+    """Share of ``data``'s images whose most loaded body site (by load share, ``other`` included)
+    is the simulator's, reading each loaded taxel's site with ``site_net`` (None: the estimated
+    body's site map alone)."""
+    from pressurepose.body.sites import site_stats
+
+    if not len(data):
+        raise BadInput("no images to score")
+    p = data.pressure
+    body = np.where(p > 0, data.body_sites, NO_SITE).astype(np.int8)
+    read = body if site_net is None else read_taxel_sites(site_net, p, body)
+    said = site_stats(p, read, data.grid).share.argmax(1)
+    truth = site_stats(p, np.where(p > 0, data.truth, NO_SITE).astype(np.int8), data.grid).share.argmax(1)
+    return float(np.mean(said == truth))
 
 
 def site_loss(logits: torch.Tensor, truth: torch.Tensor, pressure: torch.Tensor) -> torch.Tensor:
@@ -187,5 +239,5 @@ def train_site_net(data: SiteData, config: SiteTrainConfig = SiteTrainConfig(), 
     return net
 
 
-__all__ = ["SiteTrainConfig", "SiteData", "body_route_sites", "load_site_data", "site_loss", "flipped",
-           "train_site_net", "NO_SITE"]
+__all__ = ["SiteTrainConfig", "SiteData", "body_route_sites", "load_site_data", "held_out_split",
+           "most_loaded_right", "site_loss", "flipped", "train_site_net", "VAL_FRACTION", "NO_SITE"]

@@ -490,6 +490,27 @@ def test_monitor_verb_refuses_an_empty_or_many_column_timestamps_file(tmp_path, 
                  "--gender", "f", "--timestamps", str(tmp_path / "column.txt"), "--out", str(tmp_path / "out")]) == 0
 
 
+def test_monitor_verb_reads_sites_with_the_site_network_it_is_given(tmp_path, capsys):
+    """--site-net: the shipped network by default (it reads the model's mat), none for the body alone;
+    one for another mat is refused before anything is read or written."""
+    from pressurepose.cli import main
+    from pressurepose.mat import custom_mat
+    from pressurepose.net.sitenet import SiteNet, SiteNetConfig, save_site_net
+
+    np.save(tmp_path / "night.npy", np.zeros((4, 64, 27), np.float32))
+    args = ["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender", "f",
+            "--fps", "1"]
+    for choice, read_by in ((None, "site network"), ("none", "estimated body")):
+        out = tmp_path / f"out-{choice}"
+        assert main([*args, "--out", str(out)] + ([] if choice is None else ["--site-net", choice])) == 0
+        assert json.loads((out / "timeline.json").read_text())["sites_read_by"] == read_by
+    other = save_site_net(tmp_path / "other.json", SiteNet(SiteNetConfig(custom_mat(12, 7, 0.05), width=4)))
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "o3"), "--site-net", str(other)]) == 2
+    assert "reads a 12 x 7 mat; the model reads 64 x 27" in capsys.readouterr().err
+    assert not (tmp_path / "o3").exists()
+
+
 def test_frame_times_refuse_timestamps_that_are_not_a_1d_sequence():
     """A (T, 1) column, a (2, T/2) table or a single number were read flat as T times; each is
     refused with its shape, for frame_times' timestamps and monitor's times alike."""

@@ -156,25 +156,32 @@ def _says_head_everywhere(grid):
     return net
 
 
-def test_estimate_reads_each_loaded_taxels_site_with_the_site_network_for_its_mat(monkeypatch, tmp_path):
+def _toy_model(tmp_path, grid):
+    """A toy PressureNet on ``grid``, saved under ``tmp_path`` (its path)."""
     from pressurepose.body.model import BodyModel  # noqa: F401  (the toy model below builds one)
-    from pressurepose.net import infer
     from pressurepose.net.checkpoint import gendered_body, save_model
     from pressurepose.net.model import NetConfig, PressureNet
     from pressurepose.net.outputs import OutputConfig
-    from tests.net.synth import toy_body, toy_dataset
+    from tests.net.synth import toy_body
 
-    grid = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
     torch.manual_seed(0)
     body = toy_body()
-    model = save_model(tmp_path / "m.safetensors", PressureNet(NetConfig(
+    return save_model(tmp_path / "m.safetensors", PressureNet(NetConfig(
         grid=grid, outputs=OutputConfig.default((0.5, 1.0, 0.2), (0.3, 0.3, 0.1))), gendered_body(body, body)),
         (body, body))
+
+
+def test_estimate_reads_each_loaded_taxels_site_with_the_site_network_it_is_given(monkeypatch, tmp_path):
+    from pressurepose.net import infer, sitenet
+    from tests.net.synth import toy_dataset
+
+    grid = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+    model = _toy_model(tmp_path, grid)
     p = toy_dataset(2, grid=grid)["pressure"].numpy()
     plain = infer.estimate(p, "f", model=model)
-    assert plain.site_net is None and plain.sites_read_by == "estimated body"  # no site network for this mat
-    monkeypatch.setattr(infer, "site_net_for", lambda g: _says_head_everywhere(g) if g.same_grid(grid) else None)
-    est = infer.estimate(p, "f", model=model)
+    assert plain.site_net is None and plain.sites_read_by == "estimated body"  # none ships for this mat
+    head = save_site_net(tmp_path / "head.json", _says_head_everywhere(grid))
+    est = infer.estimate(p, "f", model=model, site_net=head)
     assert est.sites_read_by == "site network"
     np.testing.assert_array_equal(est.sites.taxel_site, np.where(p > 0, SITES.index("head"), NO_SITE))
     np.testing.assert_allclose(est.sites.share[:, SITES.index("head")], 1.0)
@@ -182,3 +189,124 @@ def test_estimate_reads_each_loaded_taxels_site_with_the_site_network_for_its_ma
     est.save(tmp_path / "out")
     rec = json.loads((tmp_path / "out" / "sites.json").read_text())
     assert rec["sites_read_by"] == "site network" and rec["images"][0]["most_loaded"] == "head"
+    # 'auto' takes the shipped network when it reads the model's mat; None the body alone
+    monkeypatch.setattr(sitenet, "shipped_site_net", lambda: _says_head_everywhere(grid))
+    assert infer.estimate(p, "f", model=model).sites_read_by == "site network"
+    assert infer.estimate(p, "f", model=model, site_net=None).sites_read_by == "estimated body"
+
+
+def test_a_site_network_for_another_mat_or_of_another_kind_is_refused(tmp_path):
+    from pressurepose.net.infer import estimate
+    from pressurepose.net.sitenet import resolve_site_net
+
+    grid = custom_mat(rows=16, cols=16, pitch_row_m=0.125, pitch_col_m=0.0625)
+    other = save_site_net(tmp_path / "other.json", SiteNet(SiteNetConfig(GRID, width=4)))
+    with pytest.raises(BadInput, match=r"other.json.*12 x 7 mat; the model reads 16 x 16.*train-sites"):
+        estimate(np.zeros((1, 16, 16), np.float32) + 1, "f", model=_toy_model(tmp_path, grid), site_net=other)
+    with pytest.raises(BadInput, match="site_net is int"):
+        resolve_site_net(3, grid)
+    with pytest.raises(BadInput, match="does not exist"):
+        resolve_site_net(tmp_path / "missing.json", grid)
+    assert resolve_site_net(None, grid) is None
+
+
+def test_most_loaded_right_scores_the_top_site_against_the_simulators():
+    from pressurepose.net.sitenet_train import most_loaded_right
+
+    data = _toy_data(8)  # truth: head above, sacrum below; the body route says other
+    assert most_loaded_right(data, None) == 0.0
+    top = np.array([np.bincount(np.where(t >= 0, t, len(SITES)).ravel(), weights=p.ravel(),
+                                minlength=len(SITES) + 1)[:-1].argmax() for p, t in zip(data.pressure, data.truth)])
+    expected = np.mean(top == SITES.index("head"))
+    assert 0 < expected < 1  # some images carry more on the upper half, some on the lower
+    assert most_loaded_right(data, _says_head_everywhere(GRID)) == pytest.approx(expected)
+
+
+def test_held_out_split_is_seeded_and_disjoint():
+    from pressurepose.net.sitenet_train import held_out_split
+
+    data = _toy_data(20)
+    train, held = held_out_split(data, seed=3)
+    assert (len(train), len(held)) == (18, 2)
+    again = held_out_split(data, seed=3)[1]
+    np.testing.assert_array_equal(held.pressure, again.pressure)
+    key = {p.tobytes() for p in train.pressure}
+    assert not any(p.tobytes() in key for p in held.pressure)
+    assert len(held_out_split(data, seed=3, fraction=0.0)[1]) == 0
+    with pytest.raises(BadInput, match="fraction"):
+        held_out_split(data, seed=3, fraction=1.0)
+
+
+def _sited_dataset(out, mat: str, n: int):
+    """n synthetic samples on ``mat`` whose loaded taxels record the head in the upper half of the
+    mat and the sacrum in the lower."""
+    import dataclasses
+
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import write_dataset
+    from pressurepose.data.synthetic import synthetic_producer
+
+    config = GenerationConfig("general", "f", count=n, producer="synthetic", mat=mat, seed=3, shard_size=n)
+    rng = np.random.default_rng(3)
+    samples = []
+    while len(samples) < n:
+        s = synthetic_producer(config, rng)
+        if not hasattr(s, "pressure"):
+            continue  # rejected
+        rows = np.arange(s.pressure.shape[0])[:, None]
+        sites = np.where(s.force > 0, np.where(rows < len(rows) // 2, SITES.index("head"), SITES.index("sacrum")),
+                         NO_SITE)
+        samples.append(dataclasses.replace(s, sites=sites.astype(np.int8), index=len(samples)))
+    write_dataset(out, config, samples)
+    return out, np.stack([s.pressure for s in samples])
+
+
+def test_train_sites_verb_trains_reports_and_its_network_reads_in_infer(tmp_path, capsys, monkeypatch):
+    from pressurepose.cli import main
+    from pressurepose.mat import get_mat
+
+    model = _toy_model(tmp_path, get_mat("tip"))
+    data, pressure = _sited_dataset(tmp_path / "ds", "tip", 20)
+    args = ["train-sites", "--data", str(data), "--model", str(model), "--out", str(tmp_path / "sites"),
+            "--epochs", "2", "--no-progress"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "on 18 samples, holding out 2" in said and "held-out images" in said and "estimated body alone" in said
+    net = load_site_net(tmp_path / "sites" / "sitenet.json")
+    assert net.config.grid.same_grid(get_mat("tip"))
+    monkeypatch.setattr(sitenet_train, "most_loaded_right", lambda held, site_net: 0.5 if site_net else 0.9)
+    assert main(args) == 0  # a rerun finds its last epoch done and writes the same network again
+    torch.testing.assert_close(load_site_net(tmp_path / "sites" / "sitenet.json").head.weight, net.head.weight)
+    said = capsys.readouterr()
+    assert "50.0 % with it, 90.0 % from the estimated body alone" in said.out
+    assert "names the most loaded site less often than the estimated body alone" in said.err
+    np.save(tmp_path / "p.npy", pressure[:2])
+    for choice, read_by in ((str(tmp_path / "sites" / "sitenet.json"), "site network"), ("none", "estimated body"),
+                            ("auto", "estimated body")):  # no site network ships for this mat
+        out = tmp_path / f"infer-{read_by[:4]}-{choice[-4:]}"
+        assert main(["infer", str(tmp_path / "p.npy"), "--gender", "f", "--model", str(model), "--out", str(out),
+                     "--site-net", choice, "--max-figures", "0", "--no-progress"]) == 0
+        assert json.loads((out / "sites.json").read_text())["sites_read_by"] == read_by
+
+
+def test_train_sites_refuses_data_on_another_mat_or_without_sites(tmp_path, capsys):
+    import dataclasses
+
+    from pressurepose.cli import main
+    from pressurepose.data.schema import GenerationConfig
+    from pressurepose.data.store import write_dataset
+    from pressurepose.data.synthetic import synthetic_producer
+    from pressurepose.mat import get_mat
+
+    model = _toy_model(tmp_path, get_mat("tip"))
+    data, _ = _sited_dataset(tmp_path / "ds", "boditrak_bt3510", 3)
+    assert main(["train-sites", "--data", str(data), "--model", str(model), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 2
+    assert "are on a 64 x 27 mat; the model reads 56 x 40" in capsys.readouterr().err
+    config = GenerationConfig("general", "f", count=2, producer="synthetic", mat="tip", seed=1)
+    made = (synthetic_producer(config, np.random.default_rng(k)) for k in range(20))
+    plain = [s for s in made if hasattr(s, "pressure")][:2]  # the rest were rejected
+    write_dataset(tmp_path / "plain", config, [dataclasses.replace(s, index=i) for i, s in enumerate(plain)])
+    assert main(["train-sites", "--data", str(tmp_path / "plain"), "--model", str(model), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 2
+    assert "2 of 2 samples under" in capsys.readouterr().err
