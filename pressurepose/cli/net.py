@@ -220,9 +220,14 @@ def run_train_sites(args) -> int:
     site_net = train_site_net(train, config, out=out, progress=not args.no_progress)
     print(f"site network: {out / 'sitenet.json'}")
     if len(held):
+        from pressurepose.net.sitenet import resolve_site_net
+
         net_right, body_right = most_loaded_right(held, site_net), most_loaded_right(held, None)
+        shipped = resolve_site_net("auto", g)  # what infer and monitor use by default on this mat
         print(f"most loaded body site named right in the {len(held)} held-out images: {100 * net_right:.1f} % with "
-              f"it, {100 * body_right:.1f} % from the estimated body alone")
+              f"it, {100 * body_right:.1f} % from the estimated body alone"
+              + ("" if shipped is None else f", {100 * most_loaded_right(held, shipped):.1f} % with the shipped "
+                                            f"site network (the default on this mat)"))
         if net_right < body_right:
             print("warning: the site network names the most loaded site less often than the estimated body alone; "
                   "train it on more data or for more epochs, or do not use it", file=sys.stderr)

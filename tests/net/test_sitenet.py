@@ -278,7 +278,7 @@ def test_train_sites_verb_trains_reports_and_its_network_reads_in_infer(tmp_path
     assert main(args) == 0  # a rerun finds its last epoch done and writes the same network again
     torch.testing.assert_close(load_site_net(tmp_path / "sites" / "sitenet.json").head.weight, net.head.weight)
     said = capsys.readouterr()
-    assert "50.0 % with it, 90.0 % from the estimated body alone" in said.out
+    assert "50.0 % with it, 90.0 % from the estimated body alone\n" in said.out  # none ships for this mat
     assert "names the most loaded site less often than the estimated body alone" in said.err
     np.save(tmp_path / "p.npy", pressure[:2])
     for choice, read_by in ((str(tmp_path / "sites" / "sitenet.json"), "site network"), ("none", "estimated body"),
@@ -287,6 +287,12 @@ def test_train_sites_verb_trains_reports_and_its_network_reads_in_infer(tmp_path
         assert main(["infer", str(tmp_path / "p.npy"), "--gender", "f", "--model", str(model), "--out", str(out),
                      "--site-net", choice, "--max-figures", "0", "--no-progress"]) == 0
         assert json.loads((out / "sites.json").read_text())["sites_read_by"] == read_by
+    from pressurepose.net import sitenet
+
+    capsys.readouterr()
+    monkeypatch.setattr(sitenet, "shipped_site_net", lambda: _says_head_everywhere(get_mat("tip")))
+    assert main(args) == 0  # where a site network ships for the mat, the report scores it too
+    assert "90.0 % from the estimated body alone, 50.0 % with the shipped site network" in capsys.readouterr().out
 
 
 def test_train_sites_refuses_data_on_another_mat_or_without_sites(tmp_path, capsys):
