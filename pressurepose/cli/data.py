@@ -103,11 +103,13 @@ def add_generate_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--scale", type=float, default=1.0,
                    help="with --recipe: multiply every count by this (default 1; e.g. 0.01 for a quick small mix)")
     g.add_argument("--mat", default=None, help="mat preset: boditrak_bt3510 (64 x 27, default), slp (192 x 84), "
-                                               "tip (56 x 40) or fsa_softflex_2048 (64 x 32)")
+                                               "tip (56 x 40) or fsa_softflex_2048 (64 x 32); or a mat.json of any "
+                                               "grid (rows, cols, pitch_m, optional pitch_col_m, max_mmhg, name; "
+                                               "docs/data.md), laid on the default mattress")
     g.add_argument("--bed", default=None, metavar="JSON",
                    help="the bed the bodies lie on: a `pressurepose calibrate --out` file or a BedSpec.to_dict "
-                        "record, its mat a preset (kept in the manifest; the same seed draws the same bodies "
-                        "on any bed) [the mat preset's default bed]")
+                        "record, its mat a preset or any grid (kept in the manifest; the same seed draws the same "
+                        "bodies on any bed) [the mat's default bed]")
     g.add_argument("--producer", default="physics", help=_PRODUCER_HELP)
     g.add_argument("--option", type=_option, action="append", default=[], metavar="KEY=VALUE",
                    help="producer option, repeatable (synthetic: reject_rate, cost_ms, sleep_ms)")
@@ -143,11 +145,13 @@ def run_generate(args: argparse.Namespace) -> int:
     from pressurepose.data.schema import GenerationConfig
     from pressurepose.data.store import MANIFEST
     from pressurepose.files import check_output_path
-    from pressurepose.sim.bed import bed_for
+    from pressurepose.cli.args import bed_of
+    from pressurepose.mat import MATS
 
     check_output_path(args.out, "--out", directory=True)
-    bed = bed_for(args.mat, args.bed)
-    common = dict(mat=bed.mat.name, bed=bed.to_dict() if args.bed else "", shard_size=NEW_SHARD_SIZE,
+    bed = bed_of(args.mat, args.bed)
+    default_bed = args.bed is None and bed.mat.name in MATS  # a preset's default bed is implied by its name
+    common = dict(mat=bed.mat.name, bed="" if default_bed else bed.to_dict(), shard_size=NEW_SHARD_SIZE,
                   producer=args.producer, max_attempts=args.max_attempts, options=dict(args.option),
                   randomize=bool(args.randomize), settle=args.settle, **body_settings(args))
     out = Path(args.out)

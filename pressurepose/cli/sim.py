@@ -32,7 +32,8 @@ def add_simulate_arguments(p: argparse.ArgumentParser) -> None:
     add_settle_argument(p)
     p.add_argument("--count", type=int, default=4, help="settled bodies to make [4]")
     p.add_argument("--seed", type=seed_arg, default=0, help="random seed [0]")
-    p.add_argument("--mat", default=None, help="mat preset [boditrak_bt3510, or the --bed file's]")
+    p.add_argument("--mat", default=None, help="mat preset, or a mat.json of any grid (docs/data.md) "
+                                               "[boditrak_bt3510, or the --bed file's]")
     p.add_argument("--bed", default=None, metavar="JSON",
                    help="the bed to lie on: a `pressurepose calibrate --out` file or a BedSpec.to_dict record "
                         "[the mat preset's default bed]")
@@ -114,7 +115,7 @@ def run_simulate(args) -> int:
     )
     from pressurepose.pose.config import SamplerConfig
     from pressurepose.pose.partitions import get_partition
-    from pressurepose.sim.bed import bed_for
+    from pressurepose.cli.args import bed_of
     from pressurepose.sim.settle_config import settle_preset
     from pressurepose.sim.simulate import Rejected, simulate_one
 
@@ -126,7 +127,7 @@ def run_simulate(args) -> int:
                        f"(use `generate` for datasets)")
     partition = get_partition(args.partition).name
     gender = canonical_gender(args.gender)[0]
-    body, bed = BodyModel(gender), bed_for(args.mat, args.bed)
+    body, bed = BodyModel(gender), bed_of(args.mat, args.bed)
     sampler = SamplerConfig(**body_settings(args))
     settle_config = settle_preset(args.settle)
     run_key = simulate_key(args, partition, gender, bed)

@@ -156,9 +156,9 @@ class DatasetReader:
         if n == 0:
             raise BadInput(f"{self.root} holds no samples")
         for part in self.datasets[1:]:
-            if part.config.mat != self.datasets[0].config.mat:
+            if part.config.grid != self.datasets[0].config.grid:
                 raise BadInput(f"{part.path} uses mat {part.config.mat!r} but {self.datasets[0].path} uses "
-                               f"{self.datasets[0].config.mat!r}; resample one of them first")
+                               f"{self.datasets[0].config.mat!r} (another grid); resample one of them first")
         first = read_shard_arrays(self.shards[0].path, fields)
         shapes = {f: first[f].shape[1:] for f in fields}
         out = {f: np.empty((n,) + shapes[f], dtype=np.bool_ if f == "contact" else

@@ -22,7 +22,6 @@ from pressurepose.data.schema import GenerationConfig
 from pressurepose.data.store import Manifest
 from pressurepose.errors import BadInput
 from pressurepose.files import check_output_path
-from pressurepose.mat import get_mat
 
 
 @dataclass
@@ -57,7 +56,6 @@ def generate(config: GenerationConfig, out: str | Path, *, workers: int | str = 
     if not isinstance(config, GenerationConfig):
         raise BadInput(f"config is {type(config).__name__}; expected a GenerationConfig")
     out = check_output_path(out, "out", directory=True)
-    get_mat(config.mat)  # unknown mats fail here, before anything is written
     resolve_producer(config.producer)
     check_options(config)
     if config.poses and config.producer == "physics":

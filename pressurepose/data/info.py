@@ -11,7 +11,6 @@ import numpy as np
 from pressurepose.data.dataset import DatasetReader
 from pressurepose.data.store import read_shard_arrays
 from pressurepose.errors import BadInput
-from pressurepose.mat import get_mat
 
 GRAVITY = 9.81
 
@@ -49,11 +48,11 @@ def summarize(root: str | Path, *, verify: bool = True, examples: int = 6) -> Su
     """Read every shard once (streaming) and gather the statistics of :class:`Summary`."""
     reader = DatasetReader(root, verify=verify, allow_incomplete=True)
     first = reader.datasets[0].config
-    mats = sorted({d.config.mat for d in reader.datasets})
+    mats = sorted({f"{d.config.mat} ({d.config.grid.rows} x {d.config.grid.cols})" for d in reader.datasets})
     if len(mats) > 1:  # pressures of different mats do not pool into one histogram
         raise BadInput(f"{root} holds datasets on {len(mats)} mats ({', '.join(mats)}); summarise each mat's "
                        f"datasets on their own")
-    mat = get_mat(first.mat)
+    mat = first.grid
     s = Summary(Path(root), mat.name, mat.shape, len(reader), len(reader.datasets))
     for part in reader.datasets:
         c, m = part.config, part.manifest

@@ -43,7 +43,6 @@ from pressurepose.data.store import (
     verify_shard,
 )
 from pressurepose.errors import BadInput, record_difference
-from pressurepose.mat import get_mat
 from pressurepose.sim.simulate import Rejected
 
 
@@ -129,7 +128,7 @@ def make_sample(config: GenerationConfig, index: int, producer=None,
                 progress: Progress | None = None, shard: int = -1) -> tuple[Sample, int, dict[str, int]]:
     """Sample ``index`` of a dataset: (sample, accepted attempt number, rejections by cause)."""
     producer = producer or resolve_producer(config.producer)
-    shape = get_mat(config.mat).shape
+    shape = config.grid.shape
     rejections: dict[str, int] = {}
     for attempt in range(config.max_attempts):
         out = producer(config, attempt_rng(config, index, attempt))

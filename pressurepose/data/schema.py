@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from pressurepose.errors import BadInput, require_between, require_whole
-from pressurepose.mat import get_mat
+from pressurepose.mat import MATS, MatSpec, get_mat
 from pressurepose.pose.partitions import PARTITIONS as _POSE_PARTITIONS
 from pressurepose.pose.partitions import get_partition
 
@@ -182,18 +182,28 @@ def _json_record(value, name: str, what: str):
         raise BadInput(f"{name} is not a JSON {what} ({exc})") from None
 
 
-def _canonical_bed(bed, mat: str) -> str:
-    """The canonical JSON of a bed record (a JSON string or dict of ``BedSpec.to_dict``; "" for none),
-    checked to be a bed on the mat preset ``mat``."""
+def _canonical_mat_bed(mat: str, bed) -> tuple[str, str]:
+    """(mat name, canonical JSON of the bed record) of a config: ``bed`` a JSON string or dict of
+    ``BedSpec.to_dict`` ("" for the mat preset's default bed). A bed on a mat preset must carry it
+    unchanged; a mat that is no preset (any grid, ``pressurepose.mat.custom_mat``) comes with its
+    bed, and ``mat`` then names the bed's mat."""
     from pressurepose.sim.bed import BedSpec
 
     if bed is None or bed == "":
-        return ""
+        return get_mat(mat).name, ""
     spec = BedSpec.from_dict(_json_record(bed, "bed", "bed record"))
-    if spec.mat != get_mat(mat):
-        raise BadInput(f"the bed's mat ({spec.mat.name}, {spec.mat.rows} x {spec.mat.cols}) is not the preset "
-                       f"{mat!r}; a dataset's bed must carry its mat preset unchanged")
-    return json.dumps(spec.to_dict(), sort_keys=True)
+    record = json.dumps(spec.to_dict(), sort_keys=True)
+    if str(mat).strip().lower() in MATS:
+        if spec.mat != get_mat(mat):
+            raise BadInput(f"the bed's mat ({spec.mat.name}, {spec.mat.rows} x {spec.mat.cols}) is not the preset "
+                           f"{mat!r}; a dataset's bed must carry its mat preset unchanged")
+        return get_mat(mat).name, record
+    if spec.mat.name.lower() in MATS:
+        raise BadInput(f"the bed's mat is named {spec.mat.name!r} but is not that preset; give it a name of its own")
+    if mat != spec.mat.name:
+        raise BadInput(f"mat {mat!r} is neither a preset ({', '.join(sorted(MATS))}) nor the name of the bed's mat "
+                       f"({spec.mat.name!r})")
+    return spec.mat.name, record
 
 
 def _canonical_poses(poses) -> str:
@@ -212,7 +222,8 @@ class GenerationConfig:
     """Everything that decides a dataset's content; saved in its manifest.
 
     partition, gender ('f' | 'm'), limbs_on_bed (the paper's "plo": limbs start over the bed),
-    count (samples), seed; mat (sensor preset name); shard_size (samples per file; ``pressurepose
+    count (samples), seed; mat (the mat's name: a preset, or with ``bed`` the name of the bed's mat,
+    which may be any grid; :attr:`grid` is the mat itself); shard_size (samples per file; ``pressurepose
     generate`` gives a new dataset 64, a script's config without it has 256); producer (name in
     ``pressurepose.data.producers.PRODUCERS`` or ``"module:function"``); max_attempts (tries per
     sample before the run fails); options (producer-specific settings, str -> str/number/bool).
@@ -227,7 +238,8 @@ class GenerationConfig:
     bed's, tissue's and sensor's constants and the mat's placement per sample
     (:mod:`pressurepose.sim.randomize`). bed: the bed the bodies lie on, as the canonical JSON
     of a :meth:`~pressurepose.sim.bed.BedSpec.to_dict` record (e.g. one fitted by ``pressurepose
-    calibrate``; its mat must be the preset ``mat``), or "" for the mat preset's default bed; it
+    calibrate``; its mat must be the preset ``mat`` or, for a mat that is no preset, be named ``mat``),
+    or "" for the mat preset's default bed; it
     does not change which bodies are drawn, so two beds with one seed give paired datasets. settle:
     how bodies come to rest (:data:`pressurepose.sim.settle_config.SETTLES`: 'relaxed', the default, or
     'paper', the paper's joint springs); like the bed it changes no draw. The saved record
@@ -293,8 +305,9 @@ class GenerationConfig:
 
         if self.settle not in SETTLES:
             raise BadInput(f"settle = {self.settle!r}; expected one of {', '.join(SETTLES)}")
-        object.__setattr__(self, "mat", get_mat(self.mat).name)
-        object.__setattr__(self, "bed", _canonical_bed(self.bed, self.mat))
+        mat, bed = _canonical_mat_bed(self.mat, self.bed)
+        object.__setattr__(self, "mat", mat)
+        object.__setattr__(self, "bed", bed)
         object.__setattr__(self, "poses", _canonical_poses(self.poses))
         if not isinstance(self.producer, str) or not self.producer:
             raise BadInput(f"producer = {self.producer!r}; expected a producer name")
@@ -309,6 +322,11 @@ class GenerationConfig:
     def bed_spec(self):
         """The :class:`~pressurepose.sim.bed.BedSpec` the bodies lie on (``bed``, or the mat's default bed)."""
         return _bed_spec(self.bed, self.mat)
+
+    @property
+    def grid(self) -> MatSpec:
+        """The mat the images are on: the bed's (a preset, or any grid that came with the bed)."""
+        return self.bed_spec().mat if self.bed else get_mat(self.mat)
 
     @property
     def option_dict(self) -> dict[str, Any]:

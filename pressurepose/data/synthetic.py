@@ -23,7 +23,6 @@ import numpy as np
 from pressurepose.body.toy import TOY_REST_JOINTS
 from pressurepose.data.resample import MMHG_PA
 from pressurepose.data.schema import GenerationConfig, Sample
-from pressurepose.mat import get_mat
 from pressurepose.sim.simulate import Rejected
 
 GRAVITY = 9.81
@@ -71,7 +70,7 @@ def synthetic_producer(config: GenerationConfig, rng: np.random.Generator) -> Sa
         _busy(float(config.option("cost_ms")))
     if config.option("sleep_ms", 0):
         time.sleep(float(config.option("sleep_ms")) / 1000.0)
-    grid = get_mat(config.mat)
+    grid = config.grid
     if rng.random() < float(config.option("reject_rate", 0.1)):
         return Rejected("synthetic_unstable")
 

@@ -115,8 +115,8 @@ def load_synthetic(path, mat_name: str | None = None) -> ImageSet:
         reader = DatasetReader(p)
         arr = reader.load_arrays(("pressure", "force", "pose", "mass", "height"), image_dtype=np.float32,
                                  label_dtype=np.float64)
-        mat = get_mat(reader.datasets[0].config.mat)
-        if mat_name is not None and get_mat(mat_name).name != mat.name:
+        mat = reader.datasets[0].config.grid
+        if mat_name is not None and get_mat(mat_name) != mat:
             raise BadInput(f"{p} was made on mat {mat.name!r}, not {mat_name!r}; a dataset knows its mat, so leave "
                            f"--mat out")
     else:

@@ -44,17 +44,16 @@ def load_dataset(path: str | Path, limit: int | None = None, verify: bool = True
         return _load_pack(Path(path), limit)  # needs neither the simulator nor h5py (a GPU machine may lack them)
     from pressurepose.data.dataset import DatasetReader, check_one_split
     from pressurepose.data.schema import PARTITIONS
-    from pressurepose.mat import get_mat
 
     check_one_split(path)
     reader = DatasetReader(path, verify=verify)
     arrays = reader.load_arrays(FIELDS, image_dtype=np.float32)
-    mat_name = reader.datasets[0].config.mat
+    mat_name, grid = reader.datasets[0].config.mat, reader.datasets[0].config.grid
     sl = slice(None) if limit is None else slice(0, int(limit))
     tensors = {k: torch.from_numpy(np.ascontiguousarray(arrays[k][sl])) for k in FIELDS}
     tensors["gender"] = torch.from_numpy(arrays["gender"][sl].astype(np.int64))  # 0 'f', 1 'm'
     tensors["partition"] = torch.from_numpy(arrays["partition"][sl].astype(np.int64))
-    return LoadedData(tensors, get_mat(mat_name), mat_name, tuple(PARTITIONS))
+    return LoadedData(tensors, grid, mat_name, tuple(PARTITIONS))
 
 
 PACK_FORMAT = "pressurepose-training-pack-1"

@@ -89,7 +89,7 @@ def test_info_refuses_to_pool_datasets_of_different_mats(tmp_path, capsys):
                      "--mat", mat, "--out", str(tmp_path / "mix" / name), "--no-progress"]) == 0
     capsys.readouterr()
     assert main(["info", str(tmp_path / "mix")]) == 2
-    assert "2 mats (boditrak_bt3510, tip)" in capsys.readouterr().err
+    assert "2 mats (boditrak_bt3510 (64 x 27), tip (56 x 40))" in capsys.readouterr().err
     assert main(["info", str(tmp_path / "mix" / "b")]) == 0
 
 

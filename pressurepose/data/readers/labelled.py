@@ -5,7 +5,7 @@
                  side the person lies on, lateral = either), height_m, weight_kg; optional gender
                  (f / m) and subject
     mat.json     {"preset": "boditrak_bt3510"} or {"rows": 64, "cols": 27, "pitch_m": 0.0286
-                 (, "pitch_col_m": ...)}, and "units": "mmHg" or "raw" (optional "gain": mmHg per
+                 (, "pitch_col_m": ..., "max_mmhg": ..., "name": ...)}, and "units": "mmHg" or "raw" (optional "gain": mmHg per
                  raw unit; raw images without a gain are weight-normalised)
 """
 
@@ -44,12 +44,17 @@ def read_mat_record(path: str | Path) -> dict:
 
 def mat_of_record(d: dict, path: str | Path) -> MatSpec:
     """The mat a ``mat.json`` object (read from ``path``) names: ``preset``, or ``rows``, ``cols``,
-    ``pitch_m`` and optionally ``pitch_col_m``."""
+    ``pitch_m`` and optionally ``pitch_col_m``, ``max_mmhg`` (the sensor's range, default 100) and
+    ``name`` (default 'custom')."""
     try:
         if "preset" in d:
             return get_mat(d["preset"])
         if {"rows", "cols", "pitch_m"} <= set(d):
-            return custom_mat(d["rows"], d["cols"], d["pitch_m"], d.get("pitch_col_m"))
+            name = d.get("name", "custom")
+            if not isinstance(name, str) or not name.strip():
+                raise BadInput(f"name is {name!r}; expected a word naming the mat")
+            return custom_mat(d["rows"], d["cols"], d["pitch_m"], d.get("pitch_col_m"), d.get("max_mmhg", 100.0),
+                              name=name)
         raise BadInput("expected 'preset' or 'rows', 'cols' and 'pitch_m'")
     except BadInput as exc:
         raise BadInput(f"{path}: unknown mat: {exc}") from None
