@@ -63,16 +63,9 @@ def held_out(out: Path, count: int) -> Path:
 
 def read_samples(root: Path) -> dict:
     """pressure (N, R, C), sites (N, R, C), gender (N,), partition (N,) of every sample under ``root``."""
-    from pressurepose.data.dataset import DatasetReader
-    from pressurepose.errors import BadInput
+    from pressurepose.net.sitenet_train import sited_samples
 
-    samples = list(DatasetReader(root))
-    if not samples:
-        raise BadInput(f"{root} holds no samples")
-    missing = sum(s.sites is None for s in samples)
-    if missing:
-        raise BadInput(f"{missing} of {len(samples)} samples under {root} carry no body sites (made before the "
-                       f"simulator recorded them); generate the data again")
+    samples = sited_samples(root)
     return {"pressure": np.stack([s.pressure for s in samples]).astype(np.float32),
             "sites": np.stack([s.sites for s in samples]).astype(np.int8),
             "gender": np.array([s.gender for s in samples]), "partition": np.array([s.partition for s in samples]),

@@ -95,12 +95,10 @@ def body_route_sites(pressure: np.ndarray, gender, model=None, batch_size: int =
     return np.concatenate(out)
 
 
-def load_site_data(root: str | Path, model=None, progress: bool = False) -> SiteData:
-    """Every sample under ``root`` (with its recorded sites) and the site maps of the bodies
-    ``model`` (None: the shipped PressureNet) estimates for them. BadInput when ``root`` holds no
-    samples, samples without recorded sites, or images on another mat than the model's."""
+def sited_samples(root: str | Path) -> list:
+    """Every :class:`~pressurepose.data.schema.Sample` under ``root``; BadInput when there are none
+    or some carry no recorded body sites."""
     from pressurepose.data.dataset import DatasetReader
-    from pressurepose.net.infer import resolve_model
 
     samples = list(DatasetReader(root))
     if not samples:
@@ -109,6 +107,16 @@ def load_site_data(root: str | Path, model=None, progress: bool = False) -> Site
     if missing:
         raise BadInput(f"{missing} of {len(samples)} samples under {root} carry no body sites (made before the "
                        f"simulator recorded them); generate the data again")
+    return samples
+
+
+def load_site_data(root: str | Path, model=None, progress: bool = False) -> SiteData:
+    """Every sample under ``root`` (with its recorded sites) and the site maps of the bodies
+    ``model`` (None: the shipped PressureNet) estimates for them. BadInput when ``root`` holds no
+    samples, samples without recorded sites, or images on another mat than the model's."""
+    from pressurepose.net.infer import resolve_model
+
+    samples = sited_samples(root)
     pressure = np.stack([s.pressure for s in samples]).astype(np.float32)
     net = resolve_model(model)
     grid = net.config.grid
@@ -239,5 +247,5 @@ def train_site_net(data: SiteData, config: SiteTrainConfig = SiteTrainConfig(), 
     return net
 
 
-__all__ = ["SiteTrainConfig", "SiteData", "body_route_sites", "load_site_data", "held_out_split",
+__all__ = ["SiteTrainConfig", "SiteData", "body_route_sites", "sited_samples", "load_site_data", "held_out_split",
            "most_loaded_right", "site_loss", "flipped", "train_site_net", "VAL_FRACTION", "NO_SITE"]
