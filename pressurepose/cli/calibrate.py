@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pressurepose.cli.args import seed_arg
+from pressurepose.cli.args import bed_of, seed_arg
 from pressurepose.errors import BadInput
 
 
@@ -35,8 +35,8 @@ def add_calibrate_arguments(p: argparse.ArgumentParser) -> None:
                    help="--targets real: the bed to start from and the bodies' bed (a calibrate --out file) "
                         "[the mat preset's default bed]")
     p.add_argument("--mat", default=None,
-                   help="mat preset for --targets (boditrak_bt3510, slp, tip, fsa_softflex_2048) [boditrak_bt3510]; "
-                        "--data uses its own mat")
+                   help="mat for --targets: a preset (boditrak_bt3510, slp, tip, fsa_softflex_2048) or a mat.json "
+                        "of any grid (docs/data.md) [boditrak_bt3510]; --data uses its own mat")
     p.add_argument("--body", default="f",
                    help="body for --targets: f, m, n (shipped models) or an SMPL-format file [f]")
     p.add_argument("--fit", default=None,
@@ -62,8 +62,7 @@ def run_calibrate(args) -> int:
         save_figure_atomic,
         write_json_atomic,
     )
-    from pressurepose.mat import DEFAULT_MAT
-    from pressurepose.sim.bed import BedSpec, get_bed
+    from pressurepose.sim.bed import BedSpec
 
     check_output_path(args.out, "--out", suffixes=(".json",))
     if args.plot:
@@ -93,7 +92,7 @@ def run_calibrate(args) -> int:
     else:
         from pressurepose.body import BodyModel
 
-        bed = get_bed(args.mat or DEFAULT_MAT)
+        bed = bed_of(args.mat, None)
         body = BodyModel(args.body)
         verts, faces, _ = cal.supine_body_mesh(body, bed)
         fit = fit or ("stiffness", "spread")
@@ -207,7 +206,6 @@ def _run_people_calibration(args) -> int:
         save_figure_atomic,
         write_json_atomic,
     )
-    from pressurepose.sim.bed import bed_for
 
     if not args.real or not args.bodies:
         raise BadInput("--targets real needs --real (a real-data folder or a realism.json) and --bodies "
@@ -216,7 +214,7 @@ def _run_people_calibration(args) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", suffixes=(".png",))
     t0 = time.perf_counter()
-    bed = bed_for(args.mat, args.bed)
+    bed = bed_of(args.mat, args.bed)
     match = None
     if Path(args.real).is_file():
         if args.match_extent:

@@ -114,3 +114,18 @@ def test_a_model_trained_on_a_mat_of_any_grid_reads_images_of_that_grid(tmp_path
     assert main(["infer", str(tmp_path / "d" / "shard-00000.h5"), "--model", str(tmp_path / "m"), "--out",
                  str(tmp_path / "est"), "--max-figures", "0", "--no-progress"]) == 0
     assert "2 estimate(s) written" in capsys.readouterr().out
+
+
+def test_a_bed_calibrated_on_a_mat_json_makes_data_on_that_mat(tmp_path, capsys):
+    """calibrate --mat mat.json writes a bed that carries the mat's grid; generate --bed takes it."""
+    from pressurepose.net.data import load_dataset
+
+    (tmp_path / "mat.json").write_text(json.dumps({"rows": 48, "cols": 24, "pitch_m": 0.04, "pitch_col_m": 0.035,
+                                                   "name": "ward_mat"}))
+    assert main(["calibrate", "--targets", "default", "--mat", str(tmp_path / "mat.json"), "--max-evals", "6",
+                 "--popsize", "6", "--out", str(tmp_path / "bed.json")]) == 0
+    assert BedSpec.from_dict(json.loads((tmp_path / "bed.json").read_text())["bed"]).mat == MAT
+    assert main(["generate", "--bed", str(tmp_path / "bed.json"), "--partition", "general", "--gender", "m",
+                 "--count", "2", "--producer", "synthetic", "--workers", "1", "--out", str(tmp_path / "d"),
+                 "--no-progress"]) == 0
+    assert load_dataset(tmp_path / "d").grid == MAT
