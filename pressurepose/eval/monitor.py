@@ -228,7 +228,8 @@ class Timeline:
     alerts; config; plausibility: whether each frame looks like a person lying on the mat
     (:func:`pressurepose.net.plausibility.check_plausible`; None: not checked), read through
     :attr:`doubtful`; sites_read_by: how each taxel got its site, 'site network' or 'estimated
-    body' (:attr:`pressurepose.net.infer.Estimate.sites_read_by`).
+    body' (:attr:`pressurepose.net.infer.Estimate.sites_read_by`); site_network: which site network
+    (:attr:`pressurepose.net.sitenet.SiteNet.source`: 'shipped' or its file), None for none.
     """
 
     times_s: np.ndarray
@@ -246,6 +247,7 @@ class Timeline:
     config: MonitorConfig = field(default_factory=MonitorConfig)
     plausibility: Plausibility | None = None
     sites_read_by: str = "estimated body"
+    site_network: str | None = None
 
     def __len__(self) -> int:
         return int(len(self.times_s))
@@ -264,6 +266,7 @@ class Timeline:
             "frames_doubtful": int(self.doubtful.sum()),
             "duration_s": _num(float(frame_durations(self.times_s).sum())),
             "settings": dataclasses.asdict(self.config), "sites_read_by": self.sites_read_by,
+            "site_network": self.site_network,
             "turns": [{k: _num(v) for k, v in dataclasses.asdict(t).items()} for t in self.turns],
             "posture_s": {k: _num(v) for k, v in self.posture_s.items()},
             "above_threshold_s": {k: _num(v) for k, v in self.above_s.items()},
@@ -577,7 +580,7 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
             body = np.where(read >= 0, read, body)
         maps[s:s + len(part)] = body
     tl = timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))
-    return dataclasses.replace(tl, sites_read_by=read_by)
+    return dataclasses.replace(tl, sites_read_by=read_by, site_network=None if site_net is None else site_net.source)
 
 
 def recording_input(frames, mat, units: str, dst: MatSpec, weight_kg=None, gain: float | None = None,

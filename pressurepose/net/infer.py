@@ -164,7 +164,8 @@ class Estimate:
             frame = {} if self.frame is None else {"frame": int(self.frame[i])}
             images.append({"image": i, **frame, "most_loaded": top or None, "sites": rec})
         return {"units": "peak and mean mmHg over the site's loaded taxels, contact area cm^2, share of the "
-                         "image's load", "sites": list(SITES), "sites_read_by": self.sites_read_by, "images": images}
+                         "image's load", "sites": list(SITES), "sites_read_by": self.sites_read_by,
+                "site_network": None if self.site_net is None else self.site_net.source, "images": images}
 
     def save(self, out_dir: str | Path, mesh_format: str = "ply") -> list[Path]:
         """Write estimate.json, estimate.npz, sites.json (with site loads) and one mesh per image

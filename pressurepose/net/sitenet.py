@@ -79,11 +79,14 @@ def _block(cin: int, cout: int) -> nn.Sequential:
 
 
 class SiteNet(nn.Module):
-    """U-Net from :func:`site_inputs` (B, N_INPUTS, R, C) to site logits (B, S, R, C)."""
+    """U-Net from :func:`site_inputs` (B, N_INPUTS, R, C) to site logits (B, S, R, C). ``source``
+    names where it came from, as results record it: 'shipped', the file it was loaded from, or
+    'given in Python'."""
 
     def __init__(self, config: SiteNetConfig):
         super().__init__()
         self.config = config
+        self.source = "given in Python"
         w = config.width
         self.enc = nn.ModuleList([_block(N_INPUTS, w), _block(w, 2 * w), _block(2 * w, 4 * w)])
         self.up = nn.ModuleList([nn.Conv2d(4 * w, 2 * w, 1), nn.Conv2d(2 * w, w, 1)])
@@ -180,6 +183,7 @@ def load_site_net(path: str | Path) -> SiteNet:
     except Exception as exc:  # safetensors raises its own errors for a damaged file
         raise BadInput(f"site network weights {str(weights)!r} do not load: {exc}") from None
     net.meta = record
+    net.source = "shipped" if path.resolve() == SHIPPED.resolve() else str(path)
     return net.eval()
 
 

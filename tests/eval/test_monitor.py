@@ -500,10 +500,11 @@ def test_monitor_verb_reads_sites_with_the_site_network_it_is_given(tmp_path, ca
     np.save(tmp_path / "night.npy", np.zeros((4, 64, 27), np.float32))
     args = ["monitor", str(tmp_path / "night.npy"), "--mat", "boditrak_bt3510", "--units", "mmHg", "--gender", "f",
             "--fps", "1"]
-    for choice, read_by in ((None, "site network"), ("none", "estimated body")):
+    for choice, read_by, network in ((None, "site network", "shipped"), ("none", "estimated body", None)):
         out = tmp_path / f"out-{choice}"
         assert main([*args, "--out", str(out)] + ([] if choice is None else ["--site-net", choice])) == 0
-        assert json.loads((out / "timeline.json").read_text())["sites_read_by"] == read_by
+        rec = json.loads((out / "timeline.json").read_text())
+        assert rec["sites_read_by"] == read_by and rec["site_network"] == network
     other = save_site_net(tmp_path / "other.json", SiteNet(SiteNetConfig(custom_mat(12, 7, 0.05), width=4)))
     capsys.readouterr()
     assert main([*args, "--out", str(tmp_path / "o3"), "--site-net", str(other)]) == 2

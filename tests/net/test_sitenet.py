@@ -189,6 +189,9 @@ def test_estimate_reads_each_loaded_taxels_site_with_the_site_network_it_is_give
     est.save(tmp_path / "out")
     rec = json.loads((tmp_path / "out" / "sites.json").read_text())
     assert rec["sites_read_by"] == "site network" and rec["images"][0]["most_loaded"] == "head"
+    assert rec["site_network"] == str(head)  # which network, so that the figures can be made again
+    plain.save(tmp_path / "plain")
+    assert json.loads((tmp_path / "plain" / "sites.json").read_text())["site_network"] is None
     # 'auto' takes the shipped network when it reads the model's mat; None the body alone
     monkeypatch.setattr(sitenet, "shipped_site_net", lambda: _says_head_everywhere(grid))
     assert infer.estimate(p, "f", model=model).sites_read_by == "site network"
