@@ -217,7 +217,9 @@ def run_train_sites(args) -> int:
     g = data.grid
     print(f"training a site network on {len(train)} samples, holding out {len(held)} ({g.rows} x {g.cols} mat) "
           f"into {out}")
-    site_net = train_site_net(train, config, out=out, progress=not args.no_progress)
+    made_for = {"model": "shipped" if args.model is None else str(args.model), "data": str(args.data),
+                "held_out": len(held)}
+    site_net = train_site_net(train, config, out=out, progress=not args.no_progress, meta=made_for)
     print(f"site network: {out / 'sitenet.json'}")
     if len(held):
         from pressurepose.net.sitenet import resolve_site_net

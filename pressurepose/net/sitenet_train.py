@@ -185,9 +185,10 @@ def flipped(sites: np.ndarray) -> np.ndarray:
 
 
 def train_site_net(data: SiteData, config: SiteTrainConfig = SiteTrainConfig(), out: str | Path | None = None,
-                   progress: bool = True) -> SiteNet:
+                   progress: bool = True, meta: dict | None = None) -> SiteNet:
     """A site network trained on ``data``; with ``out``, OUT/state.pt after each epoch (a rerun
-    resumes from it) and OUT/sitenet.json at the end."""
+    resumes from it) and OUT/sitenet.json at the end (``meta``: more JSON-ready notes for it, such
+    as the model and data it was made for)."""
     from tqdm import tqdm
 
     from pressurepose.net.noise import add_noise
@@ -243,7 +244,7 @@ def train_site_net(data: SiteData, config: SiteTrainConfig = SiteTrainConfig(), 
             atomic_write(state_path, lambda tmp: torch.save(state, tmp))
     net.eval()
     if out is not None:
-        save_site_net(Path(out) / "sitenet.json", net, {"training": asdict(config), "samples": len(data)})
+        save_site_net(Path(out) / "sitenet.json", net, {"training": asdict(config), "samples": len(data), **(meta or {})})
     return net
 
 

@@ -277,6 +277,7 @@ def test_train_sites_verb_trains_reports_and_its_network_reads_in_infer(tmp_path
     assert "on 18 samples, holding out 2" in said and "held-out images" in said and "estimated body alone" in said
     net = load_site_net(tmp_path / "sites" / "sitenet.json")
     assert net.config.grid.same_grid(get_mat("tip"))
+    assert net.meta["model"] == str(model) and net.meta["data"] == str(data) and net.meta["held_out"] == 2
     monkeypatch.setattr(sitenet_train, "most_loaded_right", lambda held, site_net: 0.5 if site_net else 0.9)
     assert main(args) == 0  # a rerun finds its last epoch done and writes the same network again
     torch.testing.assert_close(load_site_net(tmp_path / "sites" / "sitenet.json").head.weight, net.head.weight)
