@@ -47,19 +47,11 @@ def bed_of(mat: str | None, bed_file: str | None):
     """The bed of ``--mat`` and ``--bed`` (``generate``, ``simulate``): the one in ``bed_file``
     (whose mat must be ``mat`` where both are given), else the default bed carrying ``mat``: a
     preset's name (default :data:`~pressurepose.mat.DEFAULT_MAT`) or a mat.json of any grid."""
-    from pressurepose.errors import BadInput
     from pressurepose.mat import MATS
-    from pressurepose.sim.bed import BedSpec, bed_for, load_bed
+    from pressurepose.sim.bed import bed_for
 
     if mat is None or str(mat).strip().lower() in MATS:
         return bed_for(mat, bed_file)
     from pressurepose.data.readers.recording import resolve_mat
 
-    spec = resolve_mat(mat)[0]
-    if bed_file is None:
-        return BedSpec(mat=spec)
-    bed = load_bed(bed_file)
-    if bed.mat != spec:
-        raise BadInput(f"--mat {mat} ({spec.rows} x {spec.cols}) but the bed in {bed_file} carries the {bed.mat.name} "
-                       f"mat ({bed.mat.rows} x {bed.mat.cols}); drop --mat or give the bed of that mat")
-    return bed
+    return bed_for(resolve_mat(mat)[0], bed_file)

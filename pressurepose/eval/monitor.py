@@ -575,8 +575,8 @@ def monitor(frames, times, gender, model=None, config: MonitorConfig = MonitorCo
         est = estimate(p[part], gender, net, batch_size=batch_size, progress=False, site_net=site_net)  # in monitor's bar
         roll[s:s + len(part)] = roll_angle(est.pose)
         body = body_site_map(est.vertices, est.faces, est.vertex_site, grid, p[part])
-        if est.site_net is not None:  # the loaded taxels' sites read by the site network, as estimate() reads them
-            read = read_taxel_sites(est.site_net, p[part], np.where(p[part] > 0, body, NO_SITE))
+        if site_net is not None:  # the loaded taxels' sites read by the site network, as estimate() reads them
+            read = read_taxel_sites(site_net, p[part], np.where(p[part] > 0, body, NO_SITE))
             body = np.where(read >= 0, read, body)
         maps[s:s + len(part)] = body
     tl = timeline(t, p, selection, roll, maps, grid, config, check_plausible(p, grid))

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pressurepose.body.sites import NO_SITE, body_loads
+from pressurepose.body.sites import NO_SITE
 from pressurepose.errors import BadInput, require_whole
 from pressurepose.files import atomic_write
 from pressurepose.mat import MatSpec
@@ -91,7 +91,7 @@ def body_route_sites(pressure: np.ndarray, gender, model=None, batch_size: int =
     for s in tqdm(range(0, len(pressure), batch_size), desc="estimating bodies", unit="batch",
                   disable=not progress):
         est = estimate(pressure[s:s + batch_size], genders[s:s + batch_size], model=model, site_net=None)
-        out.append(body_loads(est.pressure, est.vertices, est.faces, est.vertex_site, est.grid)[0].taxel_site)
+        out.append(est.sites.taxel_site)  # with no site network, the estimated body's own map
     return np.concatenate(out)
 
 

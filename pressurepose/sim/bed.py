@@ -303,16 +303,17 @@ def load_bed(path) -> BedSpec:
         raise BadInput(f"bed file {str(p)!r}: {exc}") from None
 
 
-def bed_for(mat: str | None = None, bed_file=None) -> BedSpec:
+def bed_for(mat: str | MatSpec | None = None, bed_file=None) -> BedSpec:
     """The bed of a command line: the one in ``bed_file`` (:func:`load_bed`) whose mat must then be
-    ``mat`` where both are given, else the default bed of the mat preset ``mat`` (default
-    :data:`DEFAULT_MAT`)."""
+    ``mat`` where both are given, else the default bed carrying ``mat`` (a preset's name, default
+    :data:`DEFAULT_MAT`, or any MatSpec)."""
+    spec = get_mat(DEFAULT_MAT if mat is None else mat) if not isinstance(mat, MatSpec) else mat
     if bed_file is None:
-        return get_bed(DEFAULT_MAT if mat is None else mat)
+        return BedSpec(mat=spec)
     bed = load_bed(bed_file)
-    if mat is not None and get_mat(mat) != bed.mat:
-        raise BadInput(f"--mat {mat} but the bed in {bed_file} carries the {bed.mat.name} mat "
-                       f"({bed.mat.rows} x {bed.mat.cols}); drop --mat or give the bed of that mat")
+    if mat is not None and spec != bed.mat:
+        raise BadInput(f"--mat {spec.name} ({spec.rows} x {spec.cols}) but the bed in {bed_file} carries the "
+                       f"{bed.mat.name} mat ({bed.mat.rows} x {bed.mat.cols}); drop --mat or give the bed of that mat")
     return bed
 
 
