@@ -1,18 +1,12 @@
 """tools/draw_body_sites.py: the picture of the body sites in docs/monitoring.md."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "draw_body_sites.py"
+from tests.toolscript import load_tool
 
 
 def _tool():
-    spec = importlib.util.spec_from_file_location("draw_body_sites", TOOL)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_tool("draw_body_sites")
 
 
 def test_every_site_has_its_own_colour():

@@ -1,21 +1,17 @@
 """tools/train_shipped_model.py: the scaled recipe it generates from."""
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
 
 from pressurepose.data.recipes import load_recipe
+from tests.toolscript import TOOLS, load_tool
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "train_shipped_model.py"
+TOOL = TOOLS / "train_shipped_model.py"
 
 
 def _tool():
-    spec = importlib.util.spec_from_file_location("train_shipped_model", TOOL)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_tool("train_shipped_model")
 
 
 def _recording_tool(monkeypatch):

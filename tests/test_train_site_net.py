@@ -1,23 +1,16 @@
 """tools/train_site_net.py: the data it generates and what it installs."""
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 import torch
 
 from pressurepose.errors import BadInput
 from pressurepose.mat import custom_mat
 from pressurepose.net.sitenet import SiteNet, SiteNetConfig, load_site_net, save_site_net
-
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "train_site_net.py"
+from tests.toolscript import load_tool
 
 
 def _tool():
-    spec = importlib.util.spec_from_file_location("train_site_net", TOOL)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_tool("train_site_net")
 
 
 def test_data_covers_every_partition_that_draws_no_real_pose_on_both_genders(monkeypatch, tmp_path):
